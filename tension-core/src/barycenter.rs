@@ -1,0 +1,141 @@
+//! The barycenter of the feasible tension polygon (`M = N + 2` cables):
+//! Lamaury & Gouttefarde 2013 (walk along the edges) and, as the reference it
+//! is tested against, Mikelsons et al. 2008 (every pairwise intersection).
+//!
+//! Both map the polygon's centroid `lambda_c` back to tensions,
+//! `t_c = t_p + N lambda_c` (Lamaury & Gouttefarde 2013, after Eq. 23). The
+//! centroid is affine-equivariant, so `t_c` does not depend on the null-space
+//! basis or on the particular solution chosen.
+
+use nalgebra::{SMatrix, SVector, Vector2};
+
+pub use crate::polygon::{ActivePair, Bound};
+use crate::{
+    linalg::WrenchFactorization,
+    polygon::{FeasiblePolygon, PolygonCentroid},
+    scalar::all_finite,
+    solution::{robustness, Diagnostics, Solution, WarmStart},
+    Error, Real, TensionLimits,
+};
+
+/// The feasible polygon of `W t = f`, `t_min <= t <= t_max` in null-space
+/// coordinates, with the particular solution and basis that map it back.
+pub struct TensionPolygon<T: Real, const N: usize, const M: usize> {
+    /// Minimum-norm particular solution `t_p = W^+ f` (Eq. 2).
+    pub particular: SVector<T, M>,
+    /// Rows `n_k` of the orthonormal null-space basis (Eq. 6).
+    pub rows: [Vector2<T>; M],
+    /// The half-planes of Eq. 5.
+    pub polygon: FeasiblePolygon<T, M>,
+}
+
+impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
+    /// Builds the polygon from a factored wrench matrix.
+    pub fn new(
+        fact: &WrenchFactorization<T, N, M>,
+        f: &SVector<T, N>,
+        limits: &TensionLimits<T, M>,
+    ) -> Result<Self, Error> {
+        if M != N + 2 {
+            return Err(Error::UnsupportedShape);
+        }
+        if !all_finite(f.iter().copied()) {
+            return Err(Error::NonFinite);
+        }
+        let particular = fact.min_norm_solution(f);
+        if !all_finite(particular.iter().copied()) {
+            return Err(Error::NonFinite);
+        }
+        let rows = fact.null_rows_2();
+        let lower = core::array::from_fn(|k| limits.min()[k] - particular[k]);
+        let upper = core::array::from_fn(|k| limits.max()[k] - particular[k]);
+        let polygon = FeasiblePolygon::new(rows, lower, upper)?;
+        Ok(Self {
+            particular,
+            rows,
+            polygon,
+        })
+    }
+
+    /// Tensions at null-space coordinates `lambda`.
+    pub fn tensions(&self, lambda: &Vector2<T>) -> SVector<T, M> {
+        SVector::from_fn(|k, _| self.particular[k] + self.rows[k].dot(lambda))
+    }
+
+    fn solution(
+        &self,
+        found: &PolygonCentroid<T, M>,
+        limits: &TensionLimits<T, M>,
+        warm: Option<ActivePair>,
+    ) -> Result<Solution<T, M>, Error> {
+        let tensions = self.tensions(&found.centroid);
+        let robustness = robustness(&tensions, limits);
+        // The centroid lies in the polygon; rounding may put a degenerate
+        // (zero-area) one a few ulps outside, never more than the tolerance.
+        if robustness < -self.polygon.tolerance() || !all_finite(tensions.iter().copied()) {
+            return Err(Error::Infeasible);
+        }
+        Ok(Solution {
+            tensions,
+            robustness,
+            diagnostics: Diagnostics {
+                vertices: found.vertices.len() as u8,
+                warm_start: match (warm, found.warm_start_held) {
+                    (None, _) => WarmStart::NotGiven,
+                    (Some(_), true) => WarmStart::Held,
+                    (Some(_), false) => WarmStart::Lost,
+                },
+                active_pair: Some(found.robust_pair),
+                ..Diagnostics::empty()
+            },
+        })
+    }
+}
+
+/// `barycenter` (SPEC): the centroid of the feasible polygon by walking its
+/// edges (Lamaury & Gouttefarde 2013, Sect. 2.2-2.3), warm-started from the
+/// previous cycle's active pair when it is given and still a vertex.
+///
+/// Cost: one Householder factorisation (`O(N^2 M)`), then the walk: with a
+/// held warm start `O(M^2)`; cold, at most `4 C(M,2)` line pairs (`O(M^3)`).
+pub fn barycenter<T: Real, const N: usize, const M: usize>(
+    w: &SMatrix<T, N, M>,
+    f: &SVector<T, N>,
+    limits: &TensionLimits<T, M>,
+    warm: Option<ActivePair>,
+) -> Result<Solution<T, M>, Error> {
+    barycenter_factored(&WrenchFactorization::new(w)?, f, limits, warm)
+}
+
+/// [`barycenter`] on an already factored wrench matrix.
+pub fn barycenter_factored<T: Real, const N: usize, const M: usize>(
+    fact: &WrenchFactorization<T, N, M>,
+    f: &SVector<T, N>,
+    limits: &TensionLimits<T, M>,
+    warm: Option<ActivePair>,
+) -> Result<Solution<T, M>, Error> {
+    let poly = TensionPolygon::new(fact, f, limits)?;
+    let found = poly.polygon.walk(warm)?;
+    poly.solution(&found, limits, warm)
+}
+
+/// `barycenter-brute` (SPEC): the same centroid from every pairwise line
+/// intersection (Mikelsons et al. 2008), `O(M^3)`.
+pub fn barycenter_brute<T: Real, const N: usize, const M: usize>(
+    w: &SMatrix<T, N, M>,
+    f: &SVector<T, N>,
+    limits: &TensionLimits<T, M>,
+) -> Result<Solution<T, M>, Error> {
+    barycenter_brute_factored(&WrenchFactorization::new(w)?, f, limits)
+}
+
+/// [`barycenter_brute`] on an already factored wrench matrix.
+pub fn barycenter_brute_factored<T: Real, const N: usize, const M: usize>(
+    fact: &WrenchFactorization<T, N, M>,
+    f: &SVector<T, N>,
+    limits: &TensionLimits<T, M>,
+) -> Result<Solution<T, M>, Error> {
+    let poly = TensionPolygon::new(fact, f, limits)?;
+    let found = poly.polygon.brute_force()?;
+    poly.solution(&found, limits, None)
+}

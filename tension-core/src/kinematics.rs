@@ -1,0 +1,516 @@
+//! Robot geometry, cable kinematics, the wrench matrix and the external
+//! wrench, exactly as `SPEC.md` ("Poses", "Wrench matrix and equilibrium").
+//!
+//! * Pose `[x, y, z, rx, ry, rz]` (spatial6), `R = Rx(rx) Ry(ry) Rz(rz)`;
+//!   `[x, y, theta]` (planar3); `[x, y]` (planar2, attachments ignored).
+//! * Cable `i`: `l_i = a_i - p - R b_i`, `u_i = l_i / |l_i|`; column `i` of `W`
+//!   is `[u_i; (R b_i) x u_i]` (spatial6), `[u_x, u_y, (R b)_x u_y - (R b)_y u_x]`
+//!   (planar3) or `[u_x, u_y]` (planar2).
+//! * Equilibrium `W t + w_e = 0`, so the methods solve `W t = f`, `f = -w_e`.
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+use crate::{scalar::all_finite, Error, Real, TensionLimits};
+
+/// A pose: `N` numbers in the SPEC's order for the robot's kind.
+pub type Pose<T, const N: usize> = SVector<T, N>;
+
+/// The robot's kind, which fixes its number of degrees of freedom.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RobotKind {
+    /// 6 DOF, pose `[x, y, z, rx, ry, rz]`.
+    Spatial6,
+    /// 3 DOF in the plane, pose `[x, y, theta]`.
+    Planar3,
+    /// A point mass in the plane, pose `[x, y]`.
+    Planar2,
+}
+
+impl RobotKind {
+    /// Degrees of freedom `n`.
+    pub const fn dof(self) -> usize {
+        match self {
+            RobotKind::Spatial6 => 6,
+            RobotKind::Planar3 => 3,
+            RobotKind::Planar2 => 2,
+        }
+    }
+
+    /// The SPEC's name (`spatial6`, `planar3`, `planar2`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            RobotKind::Spatial6 => "spatial6",
+            RobotKind::Planar3 => "planar3",
+            RobotKind::Planar2 => "planar2",
+        }
+    }
+
+    /// Parses the SPEC's name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "spatial6" => Some(RobotKind::Spatial6),
+            "planar3" => Some(RobotKind::Planar3),
+            "planar2" => Some(RobotKind::Planar2),
+            _ => None,
+        }
+    }
+}
+
+/// Mass properties of the platform (SPEC `[platform]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Platform<T: Real> {
+    /// Mass, kg (with payload).
+    pub mass: T,
+    /// Centre of mass `c`, platform frame, m.
+    pub com: Vector3<T>,
+    /// Gravity `g`, base frame, m/s^2.
+    pub gravity: Vector3<T>,
+    /// Inertia about the centre of mass, platform axes, kg m^2.
+    pub inertia: Matrix3<T>,
+}
+
+/// Winch data for torque commands (SPEC `[winch]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Winch<T: Real> {
+    /// Drum radius, m.
+    pub drum_radius: T,
+    /// Motor turns per drum turn.
+    pub gear_ratio: T,
+    /// Efficiency in `(0, 1]`.
+    pub efficiency: T,
+    /// Largest motor torque, N m.
+    pub torque_max: T,
+}
+
+/// A motor torque command and whether it was limited to `+-torque_max`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotorTorque<T: Real> {
+    /// Commanded torque, N m, within `+-torque_max`.
+    pub torque: T,
+    /// `true` when the tension asked for more than `torque_max`.
+    pub saturated: bool,
+}
+
+impl<T: Real> Winch<T> {
+    /// Validates the winch data: every number finite and positive,
+    /// efficiency at most 1.
+    pub fn new(drum_radius: T, gear_ratio: T, efficiency: T, torque_max: T) -> Result<Self, Error> {
+        if !all_finite([drum_radius, gear_ratio, efficiency, torque_max]) {
+            return Err(Error::NonFinite);
+        }
+        if drum_radius <= T::zero()
+            || gear_ratio <= T::zero()
+            || efficiency <= T::zero()
+            || efficiency > T::one()
+            || torque_max <= T::zero()
+        {
+            return Err(Error::InvalidLimits);
+        }
+        Ok(Self {
+            drum_radius,
+            gear_ratio,
+            efficiency,
+            torque_max,
+        })
+    }
+
+    /// SPEC: `tau = t * drum_radius / (gear_ratio * efficiency)`, never beyond
+    /// `+-torque_max`; the limiting is reported, not hidden.
+    pub fn motor_torque(&self, tension: T) -> Result<MotorTorque<T>, Error> {
+        if !tension.is_finite() {
+            return Err(Error::NonFinite);
+        }
+        let raw = tension * self.drum_radius / (self.gear_ratio * self.efficiency);
+        let torque = raw.max(-self.torque_max).min(self.torque_max);
+        Ok(MotorTorque {
+            torque,
+            saturated: torque != raw,
+        })
+    }
+}
+
+/// Platform velocity and acceleration for the d'Alembert inertial wrench.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion<T: Real> {
+    /// Acceleration of the platform frame's origin `p''`, base frame, m/s^2.
+    pub linear_acceleration: Vector3<T>,
+    /// Angular velocity `omega`, base frame, rad/s.
+    pub angular_velocity: Vector3<T>,
+    /// Angular acceleration `alpha`, base frame, rad/s^2.
+    pub angular_acceleration: Vector3<T>,
+}
+
+impl<T: Real> Motion<T> {
+    /// At rest.
+    pub fn rest() -> Self {
+        Self {
+            linear_acceleration: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+            angular_acceleration: Vector3::zeros(),
+        }
+    }
+
+    /// From the time derivatives of a pose: first and second derivatives of
+    /// `[x, y, z, rx, ry, rz]` (spatial6), `[x, y, theta]` (planar3) or
+    /// `[x, y]` (planar2). For XYZ Euler angles `R = Rx(a) Ry(b) Rz(c)`:
+    /// `omega = a' e_x + b' Rx(a) e_y + c' Rx(a) Ry(b) e_z` and `alpha` its
+    /// time derivative.
+    pub fn from_pose_derivatives<const N: usize>(
+        kind: RobotKind,
+        pose: &Pose<T, N>,
+        velocity: &Pose<T, N>,
+        acceleration: &Pose<T, N>,
+    ) -> Result<Self, Error> {
+        if N != kind.dof() {
+            return Err(Error::UnsupportedShape);
+        }
+        if !all_finite(
+            pose.iter()
+                .chain(velocity.iter())
+                .chain(acceleration.iter())
+                .copied(),
+        ) {
+            return Err(Error::NonFinite);
+        }
+        let z = T::zero();
+        Ok(match kind {
+            RobotKind::Spatial6 => {
+                let (a, b) = (pose[3], pose[4]);
+                let (da, db, dc) = (velocity[3], velocity[4], velocity[5]);
+                let (sa, ca, sb, cb) = (a.sin(), a.cos(), b.sin(), b.cos());
+                let j1 = Vector3::new(T::one(), z, z);
+                let j2 = Vector3::new(z, ca, sa);
+                let j3 = Vector3::new(sb, -sa * cb, ca * cb);
+                let dj2 = Vector3::new(z, -sa, ca) * da;
+                let dj3 = Vector3::new(
+                    db * cb,
+                    -da * ca * cb + db * sa * sb,
+                    -da * sa * cb - db * ca * sb,
+                );
+                Self {
+                    linear_acceleration: Vector3::new(
+                        acceleration[0],
+                        acceleration[1],
+                        acceleration[2],
+                    ),
+                    angular_velocity: j1 * da + j2 * db + j3 * dc,
+                    angular_acceleration: j1 * acceleration[3]
+                        + j2 * acceleration[4]
+                        + j3 * acceleration[5]
+                        + dj2 * db
+                        + dj3 * dc,
+                }
+            }
+            RobotKind::Planar3 => Self {
+                linear_acceleration: Vector3::new(acceleration[0], acceleration[1], z),
+                angular_velocity: Vector3::new(z, z, velocity[2]),
+                angular_acceleration: Vector3::new(z, z, acceleration[2]),
+            },
+            RobotKind::Planar2 => Self {
+                linear_acceleration: Vector3::new(acceleration[0], acceleration[1], z),
+                angular_velocity: Vector3::zeros(),
+                angular_acceleration: Vector3::zeros(),
+            },
+        })
+    }
+}
+
+/// Per-cable kinematics at one pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CableState<T: Real, const M: usize> {
+    /// Cable lengths `|l_i|`, m.
+    pub lengths: SVector<T, M>,
+    /// Unit vectors `u_i`, the direction each cable pulls the platform.
+    pub directions: [Vector3<T>; M],
+    /// Attachment points in base axes, `R b_i` (relative to `p`).
+    pub attachments: [Vector3<T>; M],
+}
+
+/// A cable robot with `N` degrees of freedom and `M` cables.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robot<T: Real, const N: usize, const M: usize> {
+    kind: RobotKind,
+    anchors: [Vector3<T>; M],
+    attachments: [Vector3<T>; M],
+    limits: TensionLimits<T, M>,
+    platform: Platform<T>,
+    winch: Option<Winch<T>>,
+}
+
+impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
+    /// A robot; [`Error::UnsupportedShape`] unless `N` is the kind's number of
+    /// degrees of freedom and `M >= N`, [`Error::NonFinite`] for any
+    /// non-finite number, [`Error::InvalidLimits`] for a negative mass.
+    pub fn new(
+        kind: RobotKind,
+        anchors: [Vector3<T>; M],
+        attachments: [Vector3<T>; M],
+        limits: TensionLimits<T, M>,
+        platform: Platform<T>,
+        winch: Option<Winch<T>>,
+    ) -> Result<Self, Error> {
+        if N != kind.dof() || M < N {
+            return Err(Error::UnsupportedShape);
+        }
+        let numbers = anchors
+            .iter()
+            .chain(attachments.iter())
+            .flat_map(|v| v.iter().copied())
+            .chain(platform.com.iter().copied())
+            .chain(platform.gravity.iter().copied())
+            .chain(platform.inertia.iter().copied())
+            .chain([platform.mass]);
+        if !all_finite(numbers) {
+            return Err(Error::NonFinite);
+        }
+        if platform.mass < T::zero() {
+            return Err(Error::InvalidLimits);
+        }
+        Ok(Self {
+            kind,
+            anchors,
+            attachments,
+            limits,
+            platform,
+            winch,
+        })
+    }
+
+    /// The kind.
+    pub fn kind(&self) -> RobotKind {
+        self.kind
+    }
+
+    /// Tension limits.
+    pub fn limits(&self) -> &TensionLimits<T, M> {
+        &self.limits
+    }
+
+    /// Platform mass properties.
+    pub fn platform(&self) -> &Platform<T> {
+        &self.platform
+    }
+
+    /// Sets the platform mass properties (payload changes).
+    pub fn set_platform(&mut self, platform: Platform<T>) -> Result<(), Error> {
+        let copy = Self::new(
+            self.kind,
+            self.anchors,
+            self.attachments,
+            self.limits,
+            platform,
+            self.winch,
+        )?;
+        *self = copy;
+        Ok(())
+    }
+
+    /// Winch data, if the robot file has it.
+    pub fn winch(&self) -> Option<&Winch<T>> {
+        self.winch.as_ref()
+    }
+
+    /// Base anchors `a_i`.
+    pub fn anchors(&self) -> &[Vector3<T>; M] {
+        &self.anchors
+    }
+
+    /// Platform attachments `b_i` (platform frame).
+    pub fn attachments(&self) -> &[Vector3<T>; M] {
+        &self.attachments
+    }
+
+    /// Position `p` and rotation `R` of a pose (SPEC "Poses").
+    pub fn frame(&self, pose: &Pose<T, N>) -> Result<(Vector3<T>, Matrix3<T>), Error> {
+        if !all_finite(pose.iter().copied()) {
+            return Err(Error::NonFinite);
+        }
+        let z = T::zero();
+        Ok(match self.kind {
+            RobotKind::Spatial6 => {
+                let rx = rotation_x(pose[3]);
+                let ry = rotation_y(pose[4]);
+                let rz = rotation_z(pose[5]);
+                (Vector3::new(pose[0], pose[1], pose[2]), rx * ry * rz)
+            }
+            RobotKind::Planar3 => (Vector3::new(pose[0], pose[1], z), rotation_z(pose[2])),
+            RobotKind::Planar2 => (Vector3::new(pose[0], pose[1], z), Matrix3::identity()),
+        })
+    }
+
+    /// Cable vectors, lengths and directions at a pose.
+    /// [`Error::DegenerateCable`] when a cable is shorter than
+    /// `1000 eps` times the size of the robot (no direction).
+    pub fn cables(&self, pose: &Pose<T, N>) -> Result<CableState<T, M>, Error> {
+        let (p, rot) = self.frame(pose)?;
+        let planar = self.kind != RobotKind::Spatial6;
+        let flatten = |v: Vector3<T>| {
+            if planar {
+                Vector3::new(v.x, v.y, T::zero())
+            } else {
+                v
+            }
+        };
+        let mut size = p.amax();
+        let mut state = CableState {
+            lengths: SVector::zeros(),
+            directions: [Vector3::zeros(); M],
+            attachments: [Vector3::zeros(); M],
+        };
+        for i in 0..M {
+            let rb = match self.kind {
+                RobotKind::Planar2 => Vector3::zeros(),
+                _ => flatten(rot * self.attachments[i]),
+            };
+            let anchor = flatten(self.anchors[i]);
+            size = size.max(anchor.amax()).max(rb.amax());
+            let l = anchor - p - rb;
+            let length = l.norm();
+            if !all_finite(l.iter().copied()) || !length.is_finite() {
+                return Err(Error::NonFinite);
+            }
+            state.lengths[i] = length;
+            state.attachments[i] = rb;
+            state.directions[i] = l; // normalised below, once the size is known
+        }
+        let floor = T::lit(1.0e3) * T::eps() * size.max(T::eps());
+        for i in 0..M {
+            if !(state.lengths[i] > floor) {
+                return Err(Error::DegenerateCable);
+            }
+            state.directions[i] /= state.lengths[i];
+        }
+        Ok(state)
+    }
+
+    /// The wrench matrix `W` (`N x M`) at a pose (SPEC).
+    pub fn wrench_matrix(&self, pose: &Pose<T, N>) -> Result<SMatrix<T, N, M>, Error> {
+        let cables = self.cables(pose)?;
+        Ok(self.wrench_matrix_of(&cables))
+    }
+
+    /// The wrench matrix from already computed cable kinematics.
+    pub fn wrench_matrix_of(&self, cables: &CableState<T, M>) -> SMatrix<T, N, M> {
+        let mut w = SMatrix::zeros();
+        for i in 0..M {
+            let u = cables.directions[i];
+            let rb = cables.attachments[i];
+            match self.kind {
+                RobotKind::Spatial6 => {
+                    let m = rb.cross(&u);
+                    for k in 0..3 {
+                        w[(k, i)] = u[k];
+                        w[(k + 3, i)] = m[k];
+                    }
+                }
+                RobotKind::Planar3 => {
+                    w[(0, i)] = u.x;
+                    w[(1, i)] = u.y;
+                    w[(2, i)] = rb.x * u.y - rb.y * u.x;
+                }
+                RobotKind::Planar2 => {
+                    w[(0, i)] = u.x;
+                    w[(1, i)] = u.y;
+                }
+            }
+        }
+        w
+    }
+
+    /// The external wrench `w_e` on the platform (SPEC): gravity `m g` at the
+    /// centre of mass `R c`, plus `extra`, plus with `motion` the d'Alembert
+    /// inertial wrench `-(m a_c, I_w alpha + omega x I_w omega)`, where
+    /// `a_c = p'' + alpha x R c + omega x (omega x R c)` and `I_w = R I R^T`.
+    /// Like gravity, the inertial force acts at the centre of mass, so its
+    /// moment about the platform origin, `R c x (-m a_c)`, is included.
+    /// Moments are about the platform origin, as in `W`.
+    pub fn external_wrench(
+        &self,
+        pose: &Pose<T, N>,
+        extra: &SVector<T, N>,
+        motion: Option<&Motion<T>>,
+    ) -> Result<SVector<T, N>, Error> {
+        let (_, rot) = self.frame(pose)?;
+        if !all_finite(extra.iter().copied()) {
+            return Err(Error::NonFinite);
+        }
+        let pf = &self.platform;
+        let rc = match self.kind {
+            RobotKind::Planar2 => Vector3::zeros(),
+            _ => rot * pf.com,
+        };
+        let mut force = pf.gravity * pf.mass;
+        let mut moment = rc.cross(&force);
+        if let Some(motion) = motion {
+            let numbers = motion
+                .linear_acceleration
+                .iter()
+                .chain(motion.angular_velocity.iter())
+                .chain(motion.angular_acceleration.iter())
+                .copied();
+            if !all_finite(numbers) {
+                return Err(Error::NonFinite);
+            }
+            let omega = motion.angular_velocity;
+            let alpha = motion.angular_acceleration;
+            let a_c =
+                motion.linear_acceleration + alpha.cross(&rc) + omega.cross(&omega.cross(&rc));
+            let inertial_force = -a_c * pf.mass;
+            let inertia_w = rot * pf.inertia * rot.transpose();
+            force += inertial_force;
+            moment +=
+                rc.cross(&inertial_force) - (inertia_w * alpha + omega.cross(&(inertia_w * omega)));
+        }
+        let mut w: SVector<T, N> = SVector::zeros();
+        match self.kind {
+            RobotKind::Spatial6 => {
+                for k in 0..3 {
+                    w[k] = force[k] + extra[k];
+                    w[k + 3] = moment[k] + extra[k + 3];
+                }
+            }
+            RobotKind::Planar3 => {
+                w[0] = force.x + extra[0];
+                w[1] = force.y + extra[1];
+                w[2] = moment.z + extra[2];
+            }
+            RobotKind::Planar2 => {
+                w[0] = force.x + extra[0];
+                w[1] = force.y + extra[1];
+            }
+        }
+        if all_finite(w.iter().copied()) {
+            Ok(w)
+        } else {
+            Err(Error::NonFinite)
+        }
+    }
+
+    /// The wrench the cables must produce, `f = -w_e` (so that `W t = f`).
+    pub fn required_wrench(
+        &self,
+        pose: &Pose<T, N>,
+        extra: &SVector<T, N>,
+        motion: Option<&Motion<T>>,
+    ) -> Result<SVector<T, N>, Error> {
+        Ok(-self.external_wrench(pose, extra, motion)?)
+    }
+}
+
+fn rotation_x<T: Real>(a: T) -> Matrix3<T> {
+    let (s, c) = (a.sin(), a.cos());
+    let (o, l) = (T::zero(), T::one());
+    Matrix3::new(l, o, o, o, c, -s, o, s, c)
+}
+
+fn rotation_y<T: Real>(a: T) -> Matrix3<T> {
+    let (s, c) = (a.sin(), a.cos());
+    let (o, l) = (T::zero(), T::one());
+    Matrix3::new(c, o, s, o, l, o, -s, o, c)
+}
+
+fn rotation_z<T: Real>(a: T) -> Matrix3<T> {
+    let (s, c) = (a.sin(), a.cos());
+    let (o, l) = (T::zero(), T::one());
+    Matrix3::new(c, -s, o, s, c, o, o, o, l)
+}

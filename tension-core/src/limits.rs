@@ -1,0 +1,55 @@
+//! Tension limits per cable.
+
+use nalgebra::SVector;
+
+use crate::{scalar::all_finite, Error, Real};
+
+/// Lower and upper tension limit of every cable, `0 <= t_min < t_max`
+/// (SPEC "Robot description files": the same for every cable unless a cable
+/// overrides).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TensionLimits<T: Real, const M: usize> {
+    min: SVector<T, M>,
+    max: SVector<T, M>,
+}
+
+impl<T: Real, const M: usize> TensionLimits<T, M> {
+    /// Per-cable limits; [`Error::NonFinite`] or [`Error::InvalidLimits`]
+    /// unless every pair is finite with `0 <= t_min < t_max`.
+    pub fn new(min: SVector<T, M>, max: SVector<T, M>) -> Result<Self, Error> {
+        if !all_finite(min.iter().chain(max.iter()).copied()) {
+            return Err(Error::NonFinite);
+        }
+        for i in 0..M {
+            if min[i] < T::zero() || min[i] >= max[i] {
+                return Err(Error::InvalidLimits);
+            }
+        }
+        Ok(Self { min, max })
+    }
+
+    /// The same limits for every cable.
+    pub fn uniform(min: T, max: T) -> Result<Self, Error> {
+        Self::new(SVector::repeat(min), SVector::repeat(max))
+    }
+
+    /// Lower limits `t_min`.
+    pub fn min(&self) -> &SVector<T, M> {
+        &self.min
+    }
+
+    /// Upper limits `t_max`.
+    pub fn max(&self) -> &SVector<T, M> {
+        &self.max
+    }
+
+    /// Middle of the box, `t_m = (t_min + t_max) / 2` (Pott et al. 2009).
+    pub fn middle(&self) -> SVector<T, M> {
+        (self.min + self.max) * T::lit(0.5)
+    }
+
+    /// Largest absolute limit, the tension scale tolerances are relative to.
+    pub fn scale(&self) -> T {
+        self.max.iter().fold(T::zero(), |a, &b| a.max(b.abs()))
+    }
+}

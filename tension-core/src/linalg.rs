@@ -1,0 +1,204 @@
+//! Bounded-time linear algebra on fixed-size matrices.
+//!
+//! The wrench matrix is factored by Householder reflections applied to its
+//! transpose, `W^T = Q [R; 0]` with `Q` orthogonal (`M x M`) and `R` upper
+//! triangular (`N x N`): a fixed number of operations, no iteration, no
+//! sorting, so nothing can loop or panic on NaN (inputs are checked for
+//! finiteness anyway). From it:
+//! * the minimum-norm solution of `W t = f` (`t = W^+ f`, Lamaury & Gouttefarde
+//!   2013, Eq. 2): `R^T y = f`, `t = Q_1 y`;
+//! * an orthonormal basis of the null space of `W`: the last `M - N` columns
+//!   of `Q` (the `N` in their Eq. 2, the kernel of Di Paola et al. 2024, Eq. 6).
+
+use nalgebra::{SMatrix, SVector, Vector2};
+
+use crate::{scalar::all_finite, Error, Real};
+
+/// `W^T = Q [R; 0]`, computed once per pose and shared by every method.
+#[derive(Debug, Clone)]
+pub struct WrenchFactorization<T: Real, const N: usize, const M: usize> {
+    q: SMatrix<T, M, M>,
+    r: SMatrix<T, N, N>,
+}
+
+impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
+    /// Factors `w` (`N x M`). Errors: [`Error::UnsupportedShape`] when
+    /// `N > M` or `N == 0`, [`Error::NonFinite`], [`Error::Singular`] when the
+    /// rank is below `N` (a diagonal entry of `R` below
+    /// `16 M eps max|R_kk|`).
+    pub fn new(w: &SMatrix<T, N, M>) -> Result<Self, Error> {
+        Self::with_columns(w, &[true; M])
+    }
+
+    /// Factors `w` with only the columns marked `true` (the others are taken
+    /// as zero): the reduced problem of the improved closed form, where fixed
+    /// cables leave the system (Pott 2013, Eq. 4).
+    pub fn with_columns(w: &SMatrix<T, N, M>, keep: &[bool; M]) -> Result<Self, Error> {
+        if N == 0 || N > M {
+            return Err(Error::UnsupportedShape);
+        }
+        if !all_finite(w.iter().copied()) {
+            return Err(Error::NonFinite);
+        }
+        // a = W^T with dropped cables zeroed (M x N).
+        let mut a: SMatrix<T, M, N> = w.transpose();
+        for (i, &k) in keep.iter().enumerate() {
+            if !k {
+                a.row_mut(i).fill(T::zero());
+            }
+        }
+        let mut q: SMatrix<T, M, M> = SMatrix::identity();
+        let mut v: SVector<T, M> = SVector::zeros();
+        for k in 0..N {
+            // Householder vector for a[k.., k].
+            let mut norm2 = T::zero();
+            for i in k..M {
+                norm2 += a[(i, k)] * a[(i, k)];
+            }
+            let norm = norm2.sqrt();
+            if norm == T::zero() {
+                continue; // rank deficiency, caught on R's diagonal below
+            }
+            let alpha = if a[(k, k)] >= T::zero() { -norm } else { norm };
+            v.fill(T::zero());
+            for i in k..M {
+                v[i] = a[(i, k)];
+            }
+            v[k] -= alpha;
+            let vnorm2 = norm2 - a[(k, k)] * a[(k, k)] + v[k] * v[k];
+            if vnorm2 == T::zero() {
+                continue;
+            }
+            let beta = T::lit(2.0) / vnorm2;
+            // a <- H a on rows k.., columns k..
+            for j in k..N {
+                let mut s = T::zero();
+                for i in k..M {
+                    s += v[i] * a[(i, j)];
+                }
+                s *= beta;
+                for i in k..M {
+                    a[(i, j)] -= s * v[i];
+                }
+            }
+            // q <- q H
+            for row in 0..M {
+                let mut s = T::zero();
+                for i in k..M {
+                    s += q[(row, i)] * v[i];
+                }
+                s *= beta;
+                for i in k..M {
+                    q[(row, i)] -= s * v[i];
+                }
+            }
+        }
+        let mut r: SMatrix<T, N, N> = SMatrix::zeros();
+        let mut rmax = T::zero();
+        for i in 0..N {
+            for j in i..N {
+                r[(i, j)] = a[(i, j)];
+            }
+            rmax = rmax.max(r[(i, i)].abs());
+        }
+        if !all_finite(q.iter().chain(r.iter()).copied()) {
+            return Err(Error::NonFinite);
+        }
+        let threshold = T::lit(16.0) * T::lit(M as f64) * T::eps() * rmax;
+        for i in 0..N {
+            if r[(i, i)].abs() <= threshold {
+                return Err(Error::Singular);
+            }
+        }
+        Ok(Self { q, r })
+    }
+
+    /// Minimum-norm solution of `W t = f` (the pseudo-inverse `W^+ f`).
+    pub fn min_norm_solution(&self, f: &SVector<T, N>) -> SVector<T, M> {
+        // Forward substitution R^T y = f.
+        let mut y: SVector<T, N> = SVector::zeros();
+        for i in 0..N {
+            let mut s = f[i];
+            for k in 0..i {
+                s -= self.r[(k, i)] * y[k];
+            }
+            y[i] = s / self.r[(i, i)];
+        }
+        let mut t: SVector<T, M> = SVector::zeros();
+        for i in 0..M {
+            let mut s = T::zero();
+            for k in 0..N {
+                s += self.q[(i, k)] * y[k];
+            }
+            t[i] = s;
+        }
+        t
+    }
+
+    /// Entry `(cable, k)` of the orthonormal null-space basis, `k < M - N`.
+    #[inline]
+    pub fn null(&self, cable: usize, k: usize) -> T {
+        self.q[(cable, N + k)]
+    }
+
+    /// The degree of redundancy `r = M - N`.
+    pub const fn redundancy(&self) -> usize {
+        M - N
+    }
+
+    /// The first two null-space columns as rows `n_k` (Lamaury & Gouttefarde
+    /// 2013, Eq. 6), for `r = 2`.
+    pub fn null_rows_2(&self) -> [Vector2<T>; M] {
+        core::array::from_fn(|i| Vector2::new(self.null(i, 0), self.null(i, 1)))
+    }
+}
+
+/// Solves `a x = b` for a symmetric positive definite matrix stored in the
+/// leading `k x k` block of `a` (Cholesky, in place, bounded `k^3/6` steps).
+/// [`Error::NoConvergence`] is not possible; a non-positive pivot gives
+/// [`Error::Singular`]. Only the leading `k` entries of `b` are used and
+/// overwritten with the solution.
+pub fn cholesky_solve_leading<T: Real, const M: usize>(
+    a: &mut SMatrix<T, M, M>,
+    b: &mut SVector<T, M>,
+    k: usize,
+) -> Result<(), Error> {
+    let k = k.min(M);
+    for j in 0..k {
+        let mut d = a[(j, j)];
+        for p in 0..j {
+            d -= a[(j, p)] * a[(j, p)];
+        }
+        if !(d > T::zero()) || !d.is_finite() {
+            return Err(Error::Singular);
+        }
+        let d = d.sqrt();
+        a[(j, j)] = d;
+        for i in (j + 1)..k {
+            let mut s = a[(i, j)];
+            for p in 0..j {
+                s -= a[(i, p)] * a[(j, p)];
+            }
+            a[(i, j)] = s / d;
+        }
+    }
+    for i in 0..k {
+        let mut s = b[i];
+        for p in 0..i {
+            s -= a[(i, p)] * b[p];
+        }
+        b[i] = s / a[(i, i)];
+    }
+    for i in (0..k).rev() {
+        let mut s = b[i];
+        for p in (i + 1)..k {
+            s -= a[(p, i)] * b[p];
+        }
+        b[i] = s / a[(i, i)];
+    }
+    if all_finite(b.iter().take(k).copied()) {
+        Ok(())
+    } else {
+        Err(Error::NonFinite)
+    }
+}

@@ -1,0 +1,517 @@
+//! The feasible tension polygon of a robot with two degrees of redundancy,
+//! in the null-space coordinates `lambda` (Lamaury & Gouttefarde 2013,
+//! Sect. 2.1): `t = t_p + N lambda` is feasible when
+//! `t_min - t_p <= N lambda <= t_max - t_p` (their Eq. 5), `2 M` half-planes.
+//!
+//! Half-plane `h = 2 k + side` belongs to cable `k`; `side` 0 is the lower
+//! limit, 1 the upper. Each is written `a_h . lambda <= c_h` with the outward
+//! normal `a_h` (`-n_k` for the lower limit, `n_k` for the upper) and the
+//! slack `c_h - a_h . lambda >= 0` inside.
+//!
+//! Two ways to the vertices, tested against each other:
+//! * [`FeasiblePolygon::walk`]: a first vertex (warm or by the cold search over
+//!   line pairs, Eq. 8), then from vertex to vertex along the edges
+//!   (Eqs. 9-21), counter-clockwise, with the rule for three or more
+//!   concurrent lines (Sect. 2.3);
+//! * [`FeasiblePolygon::brute_force`]: every pairwise intersection that
+//!   satisfies all half-planes (Mikelsons et al. 2008), sorted by angle.
+//!
+//! The centroid is the shoelace formula (Eqs. 22-23) on the ordered vertices.
+
+use nalgebra::Vector2;
+
+use crate::{scalar::all_finite, Error, Real};
+
+/// Which limit of a cable a polygon edge lies on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Bound {
+    /// `t_i = t_min_i`.
+    Min,
+    /// `t_i = t_max_i`.
+    Max,
+}
+
+/// Two cables at a limit each: a vertex of the feasible polygon. It does not
+/// depend on the null-space basis, so it carries over from one control cycle
+/// to the next as the warm start of [`FeasiblePolygon::walk`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ActivePair {
+    /// First cable (0-based) and the limit it is at.
+    pub first: (u8, Bound),
+    /// Second cable (0-based) and the limit it is at.
+    pub second: (u8, Bound),
+}
+
+/// A vertex and the two half-planes whose lines cross there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vertex<T: Real> {
+    /// Position in null-space coordinates.
+    pub point: Vector2<T>,
+    /// The two half-plane indices (`2 * cable + side`).
+    pub lines: (u8, u8),
+}
+
+/// Up to `4 M` vertices without allocation (a convex polygon cut from `2 M`
+/// half-planes has at most `2 M`; the brute force may see a few more
+/// near-duplicates before merging them).
+#[derive(Debug, Clone)]
+pub struct VertexList<T: Real, const M: usize> {
+    slots: [[Vertex<T>; M]; 4],
+    len: usize,
+}
+
+impl<T: Real, const M: usize> VertexList<T, M> {
+    fn new() -> Self {
+        let empty = Vertex {
+            point: Vector2::zeros(),
+            lines: (0, 0),
+        };
+        Self {
+            slots: [[empty; M]; 4],
+            len: 0,
+        }
+    }
+
+    /// Capacity, `4 M`.
+    pub const CAPACITY: usize = 4 * M;
+
+    fn push(&mut self, v: Vertex<T>) -> Result<(), Error> {
+        if self.len >= Self::CAPACITY {
+            return Err(Error::NoConvergence);
+        }
+        self.slots[self.len / M][self.len % M] = v;
+        self.len += 1;
+        Ok(())
+    }
+
+    /// Number of vertices.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// `true` when there is no vertex.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Vertex `i`, `i < len()`.
+    pub fn get(&self, i: usize) -> Vertex<T> {
+        self.slots[i / M][i % M]
+    }
+
+    fn set(&mut self, i: usize, v: Vertex<T>) {
+        self.slots[i / M][i % M] = v;
+    }
+
+    /// The vertices in order.
+    pub fn iter(&self) -> impl Iterator<Item = Vertex<T>> + '_ {
+        (0..self.len).map(move |i| self.get(i))
+    }
+}
+
+/// The result of a vertex enumeration.
+#[derive(Debug, Clone)]
+pub struct PolygonCentroid<T: Real, const M: usize> {
+    /// Centroid (by area) in null-space coordinates.
+    pub centroid: Vector2<T>,
+    /// Vertices, counter-clockwise.
+    pub vertices: VertexList<T, M>,
+    /// Area (zero for a degenerate polygon: a point or a segment).
+    pub area: T,
+    /// The vertex farthest from being cut off by a third line, to warm-start
+    /// the next call from.
+    pub robust_pair: ActivePair,
+    /// `true` when the walk started from the given warm start.
+    pub warm_start_held: bool,
+}
+
+/// The `2 M` half-planes in null-space coordinates.
+#[derive(Debug, Clone)]
+pub struct FeasiblePolygon<T: Real, const M: usize> {
+    rows: [Vector2<T>; M],
+    lower: [T; M],
+    upper: [T; M],
+    used: [bool; M],
+    tol: T,
+}
+
+impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
+    /// Half-planes `lower_k <= n_k . lambda <= upper_k` for each cable `k`
+    /// (`lower = t_min - t_p`, `upper = t_max - t_p`). A cable whose row `n_k`
+    /// is (numerically) zero has a tension fixed by equilibrium: it is checked
+    /// against its limits and left out ([`Error::Infeasible`] if outside).
+    pub fn new(rows: [Vector2<T>; M], lower: [T; M], upper: [T; M]) -> Result<Self, Error> {
+        if M > 32 {
+            return Err(Error::UnsupportedShape);
+        }
+        let finite = all_finite(rows.iter().flat_map(|r| [r.x, r.y]))
+            && all_finite(lower.iter().chain(upper.iter()).copied());
+        if !finite {
+            return Err(Error::NonFinite);
+        }
+        let mut scale = T::zero();
+        let mut row_max = T::zero();
+        for k in 0..M {
+            scale = scale.max(lower[k].abs()).max(upper[k].abs());
+            row_max = row_max.max(rows[k].norm());
+        }
+        if row_max == T::zero() {
+            return Err(Error::Singular);
+        }
+        // Slack tolerance in tension units: rounding of t_p and of N lambda.
+        let tol = T::lit(64.0) * T::eps() * scale.max(T::one());
+        let row_floor = T::lit(1.0e3) * T::eps() * row_max;
+        let mut used = [true; M];
+        for k in 0..M {
+            if lower[k] > upper[k] {
+                return Err(Error::InvalidLimits);
+            }
+            if rows[k].norm() <= row_floor {
+                if lower[k] > tol || upper[k] < -tol {
+                    return Err(Error::Infeasible);
+                }
+                used[k] = false;
+            }
+        }
+        Ok(Self {
+            rows,
+            lower,
+            upper,
+            used,
+            tol,
+        })
+    }
+
+    /// The slack tolerance used for "on a line" and "feasible", tension units.
+    pub fn tolerance(&self) -> T {
+        self.tol
+    }
+
+    #[inline]
+    fn normal(&self, h: usize) -> Vector2<T> {
+        let n = self.rows[h / 2];
+        if h % 2 == 0 {
+            -n
+        } else {
+            n
+        }
+    }
+
+    #[inline]
+    fn offset(&self, h: usize) -> T {
+        if h % 2 == 0 {
+            -self.lower[h / 2]
+        } else {
+            self.upper[h / 2]
+        }
+    }
+
+    #[inline]
+    fn slack(&self, h: usize, p: &Vector2<T>) -> T {
+        self.offset(h) - self.normal(h).dot(p)
+    }
+
+    #[inline]
+    fn is_used(&self, h: usize) -> bool {
+        self.used[h / 2]
+    }
+
+    /// `true` when `p` satisfies every half-plane within the tolerance.
+    pub fn contains(&self, p: &Vector2<T>) -> bool {
+        (0..2 * M).all(|h| !self.is_used(h) || self.slack(h, p) >= -self.tol)
+    }
+
+    /// Intersection of the lines of half-planes `h1` and `h2`, `None` when
+    /// (nearly) parallel.
+    fn intersect(&self, h1: usize, h2: usize) -> Option<Vector2<T>> {
+        let a1 = self.normal(h1);
+        let a2 = self.normal(h2);
+        let det = a1.x * a2.y - a1.y * a2.x;
+        if det.abs() <= T::lit(16.0) * T::eps() * a1.norm() * a2.norm() {
+            return None;
+        }
+        let c1 = self.offset(h1);
+        let c2 = self.offset(h2);
+        let p = Vector2::new((c1 * a2.y - c2 * a1.y) / det, (a1.x * c2 - a2.x * c1) / det);
+        all_finite([p.x, p.y]).then_some(p)
+    }
+
+    /// The vertex of two lines if it is feasible.
+    fn vertex_of(&self, h1: usize, h2: usize) -> Option<Vertex<T>> {
+        if h1 / 2 == h2 / 2 || !self.is_used(h1) || !self.is_used(h2) {
+            return None;
+        }
+        let p = self.intersect(h1, h2)?;
+        self.contains(&p).then_some(Vertex {
+            point: p,
+            lines: (h1 as u8, h2 as u8),
+        })
+    }
+
+    /// Cold search for a first vertex over the line pairs, in a fixed order
+    /// (their Eq. 8): at most `4 C(M, 2)` 2x2 solves of `O(M)` checks each.
+    pub fn first_vertex(&self) -> Option<Vertex<T>> {
+        for h1 in 0..2 * M {
+            for h2 in (h1 + 1)..2 * M {
+                if let Some(v) = self.vertex_of(h1, h2) {
+                    return Some(v);
+                }
+            }
+        }
+        None
+    }
+
+    /// All vertices by walking the boundary counter-clockwise from a first
+    /// vertex (warm start if it still gives a vertex, else the cold search),
+    /// and their centroid.
+    ///
+    /// Worst case: the cold search (`4 C(M,2)` solves, `O(M^3)`), then at most
+    /// `2 M` walk steps of `O(M)` each, then the `O(M^2)` choice of the
+    /// warm-start vertex. Should rounding make the walk revisit an edge, it
+    /// falls back to [`Self::brute_force`] (`O(M^3)` too).
+    pub fn walk(&self, warm: Option<ActivePair>) -> Result<PolygonCentroid<T, M>, Error> {
+        let mut held = false;
+        let mut start = None;
+        if let Some(pair) = warm {
+            let h1 = line_index(pair.first);
+            let h2 = line_index(pair.second);
+            if h1 < 2 * M && h2 < 2 * M {
+                start = self.vertex_of(h1, h2);
+                held = start.is_some();
+            }
+        }
+        let start = match start {
+            Some(v) => v,
+            None => self.first_vertex().ok_or(Error::Infeasible)?,
+        };
+        match self.walk_from(start) {
+            Some(vertices) => self.finish(vertices, held),
+            None => self.brute_force(),
+        }
+    }
+
+    /// The walk itself; `None` on a numerical anomaly (an edge met twice).
+    fn walk_from(&self, start: Vertex<T>) -> Option<VertexList<T, M>> {
+        let mut vertices = VertexList::new();
+        vertices.push(start).ok()?;
+        // Outgoing edge at the first vertex: an active line along which no
+        // other active half-plane is violated (Sect. 2.2.2, Eqs. 10-11).
+        let mut edge = None;
+        for h in 0..2 * M {
+            if !self.is_used(h) || self.slack(h, &start.point).abs() > self.tol {
+                continue;
+            }
+            let d = direction(&self.normal(h));
+            let blocked = (0..2 * M).any(|g| {
+                g != h
+                    && self.is_used(g)
+                    && self.slack(g, &start.point).abs() <= self.tol
+                    && self.normal(g).dot(&d) > self.dir_tol(g)
+            });
+            if !blocked {
+                edge = Some(h);
+                break;
+            }
+        }
+        let Some(first_edge) = edge else {
+            return Some(vertices); // a single point
+        };
+        let mut visited: u64 = 1 << first_edge;
+        let mut h = first_edge;
+        let mut v = start.point;
+        for _ in 0..=2 * M {
+            let o = self.normal(h).normalize();
+            let d = Vector2::new(-o.y, o.x);
+            // Smallest step to another line along the edge (Eqs. 16-19).
+            let mut alpha_min = T::max_value()?;
+            let mut any = false;
+            for g in 0..2 * M {
+                if g == h || !self.is_used(g) {
+                    continue;
+                }
+                let ad = self.normal(g).dot(&d);
+                if ad > self.dir_tol(g) {
+                    any = true;
+                    alpha_min = alpha_min.min(self.slack(g, &v) / ad);
+                }
+            }
+            if !any {
+                return None;
+            }
+            let w_guess = v + d * alpha_min.max(T::zero());
+            // Among lines reached there (ties: concurrent lines, Sect. 2.3),
+            // the edge-supporting one bounds the normal cone: the largest
+            // counter-clockwise angle from the current normal.
+            let mut next = None;
+            let mut best_cos = T::max_value()?;
+            for g in 0..2 * M {
+                if g == h || !self.is_used(g) {
+                    continue;
+                }
+                let a = self.normal(g);
+                if a.dot(&d) > self.dir_tol(g) && self.slack(g, &w_guess) <= self.tol {
+                    let cos = a.dot(&o) / a.norm();
+                    if cos < best_cos {
+                        best_cos = cos;
+                        next = Some(g);
+                    }
+                }
+            }
+            let g = next?;
+            if g == first_edge {
+                return Some(vertices);
+            }
+            if visited & (1 << g) != 0 {
+                return None;
+            }
+            visited |= 1 << g;
+            let w = self.intersect(h, g).unwrap_or(w_guess);
+            vertices
+                .push(Vertex {
+                    point: w,
+                    lines: (h as u8, g as u8),
+                })
+                .ok()?;
+            h = g;
+            v = w;
+        }
+        None
+    }
+
+    /// Threshold for "moving along `d` approaches line `g`".
+    #[inline]
+    fn dir_tol(&self, g: usize) -> T {
+        T::lit(16.0) * T::eps() * self.rows[g / 2].norm()
+    }
+
+    /// Every pairwise intersection that is feasible, merged within the
+    /// tolerance and sorted by angle about their mean (Mikelsons et al.
+    /// 2008): `C(2M, 2)` solves of `O(M)` checks, `O(M^3)`.
+    pub fn brute_force(&self) -> Result<PolygonCentroid<T, M>, Error> {
+        let mut vertices: VertexList<T, M> = VertexList::new();
+        let merge = T::lit(4.0) * self.tol;
+        for h1 in 0..2 * M {
+            for h2 in (h1 + 1)..2 * M {
+                if let Some(v) = self.vertex_of(h1, h2) {
+                    if !vertices.iter().any(|u| (u.point - v.point).norm() <= merge) {
+                        vertices.push(v)?;
+                    }
+                }
+            }
+        }
+        if vertices.is_empty() {
+            return Err(Error::Infeasible);
+        }
+        // Sort counter-clockwise about the mean (insertion sort, <= 4M items).
+        let mut mean = Vector2::zeros();
+        for v in vertices.iter() {
+            mean += v.point;
+        }
+        mean /= T::lit(vertices.len() as f64);
+        let angle = |v: &Vertex<T>| {
+            let p = v.point - mean;
+            p.y.atan2(p.x)
+        };
+        for i in 1..vertices.len() {
+            let mut j = i;
+            while j > 0 && angle(&vertices.get(j - 1)) > angle(&vertices.get(j)) {
+                let a = vertices.get(j - 1);
+                vertices.set(j - 1, vertices.get(j));
+                vertices.set(j, a);
+                j -= 1;
+            }
+        }
+        self.finish(vertices, false)
+    }
+
+    /// Centroid of ordered vertices and the most robust vertex.
+    fn finish(
+        &self,
+        vertices: VertexList<T, M>,
+        held: bool,
+    ) -> Result<PolygonCentroid<T, M>, Error> {
+        let (centroid, area) = centroid(&vertices, self.tol);
+        let mut best = vertices.get(0);
+        let mut best_margin = -T::max_value().unwrap_or_else(T::one);
+        for v in vertices.iter() {
+            let margin = (0..2 * M)
+                .filter(|&g| self.is_used(g) && g != v.lines.0 as usize && g != v.lines.1 as usize)
+                .map(|g| self.slack(g, &v.point) / self.rows[g / 2].norm())
+                .fold(T::max_value().unwrap_or_else(T::one), |a, b| a.min(b));
+            if margin > best_margin {
+                best_margin = margin;
+                best = v;
+            }
+        }
+        if !all_finite([centroid.x, centroid.y, area]) {
+            return Err(Error::NonFinite);
+        }
+        Ok(PolygonCentroid {
+            centroid,
+            vertices,
+            area,
+            robust_pair: ActivePair {
+                first: line_of(best.lines.0 as usize),
+                second: line_of(best.lines.1 as usize),
+            },
+            warm_start_held: held,
+        })
+    }
+}
+
+/// Counter-clockwise direction along a line with outward normal `a`.
+#[inline]
+fn direction<T: Real>(a: &Vector2<T>) -> Vector2<T> {
+    let o = a.normalize();
+    Vector2::new(-o.y, o.x)
+}
+
+fn line_index((cable, bound): (u8, Bound)) -> usize {
+    2 * cable as usize + if bound == Bound::Max { 1 } else { 0 }
+}
+
+fn line_of(h: usize) -> (u8, Bound) {
+    (
+        (h / 2) as u8,
+        if h % 2 == 1 { Bound::Max } else { Bound::Min },
+    )
+}
+
+/// Centroid and area of a polygon given by its ordered vertices: the
+/// shoelace formulas (Lamaury & Gouttefarde 2013, Eqs. 22-23), taken about
+/// the first vertex for accuracy. A polygon of (numerically) zero area, a
+/// point or a segment, has as centroid the midpoint of its two farthest
+/// vertices.
+pub fn centroid<T: Real, const M: usize>(vertices: &VertexList<T, M>, tol: T) -> (Vector2<T>, T) {
+    let q = vertices.len();
+    if q == 0 {
+        return (Vector2::zeros(), T::zero());
+    }
+    let origin = vertices.get(0).point;
+    let mut twice_area = T::zero();
+    let mut cx = T::zero();
+    let mut cy = T::zero();
+    let mut diameter = T::zero();
+    let mut far = (origin, origin);
+    for i in 0..q {
+        let p = vertices.get(i).point - origin;
+        let n = vertices.get((i + 1) % q).point - origin;
+        let cross = p.x * n.y - n.x * p.y;
+        twice_area += cross;
+        cx += (p.x + n.x) * cross;
+        cy += (p.y + n.y) * cross;
+        for j in (i + 1)..q {
+            let dist = (vertices.get(j).point - vertices.get(i).point).norm();
+            if dist > diameter {
+                diameter = dist;
+                far = (vertices.get(i).point, vertices.get(j).point);
+            }
+        }
+    }
+    let area = twice_area * T::lit(0.5);
+    if area <= tol * diameter {
+        return ((far.0 + far.1) * T::lit(0.5), T::zero());
+    }
+    let c = Vector2::new(cx, cy) / (T::lit(6.0) * area);
+    (c + origin, area)
+}

@@ -1,0 +1,128 @@
+//! One entry point for every method, with the warm-start state a control
+//! loop carries from one cycle to the next.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::{
+    analytic_centre::AnalyticCentre,
+    barycenter::{barycenter_brute_factored, barycenter_factored, ActivePair},
+    closed_form::{closed_form_factored, improved_closed_form},
+    linalg::WrenchFactorization,
+    Error, Real, Solution, TensionLimits,
+};
+
+/// The tension distribution methods, named as in the SPEC.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// `barycenter`: Lamaury & Gouttefarde 2013 (`M = N + 2`).
+    Barycenter,
+    /// `barycenter-brute`: Mikelsons et al. 2008 (`M = N + 2`).
+    BarycenterBrute,
+    /// `analytic-centre`: Di Paola et al. 2024 (any `M >= N`).
+    AnalyticCentre,
+    /// `closed-form`: Pott et al. 2009 (any `M >= N`).
+    ClosedForm,
+    /// `improved-closed-form`: Pott 2013 (any `M >= N`).
+    ImprovedClosedForm,
+}
+
+impl Method {
+    /// Every method, in the SPEC's order.
+    pub const ALL: [Method; 5] = [
+        Method::Barycenter,
+        Method::BarycenterBrute,
+        Method::AnalyticCentre,
+        Method::ClosedForm,
+        Method::ImprovedClosedForm,
+    ];
+
+    /// The SPEC's name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Method::Barycenter => "barycenter",
+            Method::BarycenterBrute => "barycenter-brute",
+            Method::AnalyticCentre => "analytic-centre",
+            Method::ClosedForm => "closed-form",
+            Method::ImprovedClosedForm => "improved-closed-form",
+        }
+    }
+
+    /// Parses the SPEC's name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// Whether the method applies to `M` cables and `N` degrees of freedom.
+    pub const fn supports(self, n: usize, m: usize) -> bool {
+        match self {
+            Method::Barycenter | Method::BarycenterBrute => m == n + 2,
+            _ => m >= n && n > 0,
+        }
+    }
+}
+
+/// A method plus the previous cycle's result it warm-starts from
+/// (the barycenter's active pair, the analytic centre's tensions).
+#[derive(Debug, Clone, Copy)]
+pub struct TensionSolver<T: Real, const M: usize> {
+    method: Method,
+    previous_pair: Option<ActivePair>,
+    previous_tensions: Option<SVector<T, M>>,
+}
+
+impl<T: Real, const M: usize> TensionSolver<T, M> {
+    /// A solver with no history.
+    pub fn new(method: Method) -> Self {
+        Self {
+            method,
+            previous_pair: None,
+            previous_tensions: None,
+        }
+    }
+
+    /// The method.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// Forgets the previous cycle (after a jump in the trajectory).
+    pub fn reset(&mut self) {
+        self.previous_pair = None;
+        self.previous_tensions = None;
+    }
+
+    /// Solves `W t = f` within the limits, warm-started from the previous
+    /// successful call. A failed call leaves the warm-start state as it was.
+    pub fn solve<const N: usize>(
+        &mut self,
+        w: &SMatrix<T, N, M>,
+        f: &SVector<T, N>,
+        limits: &TensionLimits<T, M>,
+    ) -> Result<Solution<T, M>, Error> {
+        let solution = match self.method {
+            Method::ImprovedClosedForm => improved_closed_form(w, f, limits)?,
+            method => {
+                let fact = WrenchFactorization::new(w)?;
+                match method {
+                    Method::Barycenter => {
+                        barycenter_factored(&fact, f, limits, self.previous_pair)?
+                    }
+                    Method::BarycenterBrute => barycenter_brute_factored(&fact, f, limits)?,
+                    Method::AnalyticCentre => AnalyticCentre::default().solve_factored(
+                        &fact,
+                        w,
+                        f,
+                        limits,
+                        self.previous_tensions.as_ref(),
+                    )?,
+                    _ => closed_form_factored(&fact, w, f, limits)?,
+                }
+            }
+        };
+        if let Some(pair) = solution.diagnostics.active_pair {
+            self.previous_pair = Some(pair);
+        }
+        self.previous_tensions = Some(solution.tensions);
+        Ok(solution)
+    }
+}

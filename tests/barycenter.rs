@@ -1,0 +1,361 @@
+//! The barycenter walk (Lamaury & Gouttefarde 2013) against the brute force
+//! (Mikelsons et al. 2008) and against an independent polygon-clipping
+//! reference, on random wrench matrices of every shape with `M = N + 2`.
+
+use cdpr_integration_tests::{clip_polygon, reference_barycenter};
+use nalgebra::{SMatrix, SVector, Vector2};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use proptest::{prelude::*, test_runner::TestRunner};
+use tension_core::{
+    barycenter, barycenter_brute, polygon::FeasiblePolygon, ActivePair, Error, TensionLimits,
+    WarmStart,
+};
+
+/// Relative agreement of two tension vectors against the tension scale.
+fn close<const M: usize>(a: &SVector<f64, M>, b: &SVector<f64, M>, scale: f64, rel: f64) -> bool {
+    (a - b).amax() <= rel * scale
+}
+
+fn check_solution<const N: usize, const M: usize>(
+    w: &SMatrix<f64, N, M>,
+    f: &SVector<f64, N>,
+    limits: &TensionLimits<f64, M>,
+    t: &SVector<f64, M>,
+) {
+    let scale = limits.scale();
+    assert!(
+        (w * t - f).amax() <= 1e-9 * (1.0 + f.amax() + scale),
+        "W t != f: {}",
+        (w * t - f).amax()
+    );
+    for i in 0..M {
+        assert!(t[i] >= limits.min()[i] - 1e-9 * scale && t[i] <= limits.max()[i] + 1e-9 * scale);
+    }
+}
+
+/// Compares walk (cold and warm), brute force and the clipping reference;
+/// `true` when the pose was feasible.
+fn compare<const N: usize, const M: usize>(
+    w: SMatrix<f64, N, M>,
+    f: SVector<f64, N>,
+    limits: TensionLimits<f64, M>,
+) -> bool {
+    let walk = barycenter(&w, &f, &limits, None);
+    let brute = barycenter_brute(&w, &f, &limits);
+    let reference = reference_barycenter(&w, &f, &limits);
+    let scale = limits.scale();
+    match (&walk, &brute) {
+        (Ok(a), Ok(b)) => {
+            check_solution(&w, &f, &limits, &a.tensions);
+            assert!(
+                close(&a.tensions, &b.tensions, scale, 1e-9),
+                "walk {:?}\nbrute {:?}",
+                a.tensions,
+                b.tensions
+            );
+            if let Some((r, rel_area)) = reference {
+                if rel_area > 1e-6 {
+                    assert!(
+                        close(&a.tensions, &r, scale, 1e-7),
+                        "walk {:?}\nreference {r:?}",
+                        a.tensions
+                    );
+                }
+            }
+            // Warm start from the returned pair gives the same answer.
+            let pair = a.diagnostics.active_pair.expect("pair");
+            let warm = barycenter(&w, &f, &limits, Some(pair)).expect("warm");
+            assert_eq!(warm.diagnostics.warm_start, WarmStart::Held);
+            assert!(close(&a.tensions, &warm.tensions, scale, 1e-9));
+            true
+        }
+        (Err(Error::Infeasible), Err(Error::Infeasible)) => {
+            if let Some((_, rel_area)) = reference {
+                assert!(
+                    rel_area < 1e-9,
+                    "reference finds a polygon of relative area {rel_area}"
+                );
+            }
+            false
+        }
+        other => panic!("walk and brute disagree: {other:?}"),
+    }
+}
+
+fn matrix<const N: usize, const M: usize>(values: &[f64]) -> SMatrix<f64, N, M> {
+    SMatrix::from_fn(|i, j| values[i * M + j])
+}
+
+/// A random `N x M` matrix, a tension vector inside the box and a random
+/// offset of the wrench (feasible or not).
+fn problem<const N: usize, const M: usize>(
+) -> impl Strategy<Value = (SMatrix<f64, N, M>, SVector<f64, N>, TensionLimits<f64, M>)> {
+    (
+        prop::collection::vec(-1.0f64..1.0, N * M),
+        prop::collection::vec(0.0f64..1.0, M),
+        prop::collection::vec(-1.0f64..1.0, N),
+        prop_oneof![Just(0.0), 0.0f64..30.0],
+        0.0f64..20.0,
+        1.0f64..500.0,
+    )
+        .prop_map(|(entries, inside, offset, push, t_min, width)| {
+            let w = matrix::<N, M>(&entries);
+            let limits = TensionLimits::uniform(t_min, t_min + width).unwrap();
+            let t0 = SVector::<f64, M>::from_fn(|i, _| t_min + width * inside[i]);
+            let f = w * t0 + SVector::<f64, N>::from_fn(|i, _| offset[i] * push * width);
+            (w, f, limits)
+        })
+}
+
+/// Runs `cases` random problems through [`compare`] and checks that both the
+/// feasible and the infeasible branch were exercised.
+fn random_cases<const N: usize, const M: usize>(cases: u32) {
+    let feasible = AtomicUsize::new(0);
+    let infeasible = AtomicUsize::new(0);
+    let mut runner = TestRunner::new(ProptestConfig::with_cases(cases));
+    runner
+        .run(&problem::<N, M>(), |(w, f, limits)| {
+            match compare(w, f, limits) {
+                true => feasible.fetch_add(1, Ordering::Relaxed),
+                false => infeasible.fetch_add(1, Ordering::Relaxed),
+            };
+            Ok(())
+        })
+        .unwrap();
+    let (ok, no) = (feasible.into_inner(), infeasible.into_inner());
+    assert!(
+        ok >= cases as usize / 5 && no >= cases as usize / 20,
+        "{ok} feasible, {no} infeasible"
+    );
+}
+
+#[test]
+fn walk_matches_brute_and_reference_6x8() {
+    random_cases::<6, 8>(600);
+}
+
+#[test]
+fn walk_matches_brute_and_reference_3x5() {
+    random_cases::<3, 5>(600);
+}
+
+#[test]
+fn walk_matches_brute_and_reference_2x4() {
+    random_cases::<2, 4>(600);
+}
+
+#[test]
+fn walk_matches_brute_and_reference_1x3() {
+    random_cases::<1, 3>(600);
+}
+
+// ---- Constructed polygons, directly in null-space coordinates ----
+
+/// Runs walk, brute and clipping on half-planes `lo_k <= n_k . x <= hi_k`.
+fn polygon_case<const M: usize>(
+    rows: [[f64; 2]; M],
+    lo: [f64; M],
+    hi: [f64; M],
+) -> (usize, Vector2<f64>) {
+    let poly = FeasiblePolygon::new(rows.map(|r| Vector2::new(r[0], r[1])), lo, hi).unwrap();
+    let walk = poly.walk(None).expect("walk");
+    let brute = poly.brute_force().expect("brute");
+    assert!(
+        (walk.centroid - brute.centroid).amax() < 1e-9,
+        "{:?} vs {:?}",
+        walk.centroid,
+        brute.centroid
+    );
+    assert_eq!(walk.vertices.len(), brute.vertices.len());
+    let clipped = clip_polygon(&rows, &lo, &hi, 1e3);
+    if clipped.area > 1e-9 {
+        assert!((walk.area - clipped.area).abs() < 1e-9 * clipped.area.max(1.0));
+        assert!((walk.centroid.x - clipped.centroid[0]).abs() < 1e-9);
+        assert!((walk.centroid.y - clipped.centroid[1]).abs() < 1e-9);
+    }
+    // From every vertex as a warm start, the same centroid.
+    for v in walk.vertices.iter() {
+        let pair = ActivePair {
+            first: (
+                (v.lines.0 / 2),
+                if v.lines.0 % 2 == 1 {
+                    tension_core::Bound::Max
+                } else {
+                    tension_core::Bound::Min
+                },
+            ),
+            second: (
+                (v.lines.1 / 2),
+                if v.lines.1 % 2 == 1 {
+                    tension_core::Bound::Max
+                } else {
+                    tension_core::Bound::Min
+                },
+            ),
+        };
+        let warm = poly.walk(Some(pair)).expect("warm walk");
+        assert!(warm.warm_start_held);
+        assert!((warm.centroid - walk.centroid).amax() < 1e-9);
+    }
+    (walk.vertices.len(), walk.centroid)
+}
+
+#[test]
+fn unit_square() {
+    let (q, c) = polygon_case([[1.0, 0.0], [0.0, 1.0]], [0.0, 0.0], [1.0, 1.0]);
+    assert_eq!(q, 4);
+    assert!((c - Vector2::new(0.5, 0.5)).amax() < 1e-12);
+}
+
+#[test]
+fn triangle_from_three_cables() {
+    // x >= 0, y >= 0, x + y <= 1: centroid (1/3, 1/3); the other bounds far away.
+    let (q, c) = polygon_case(
+        [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]],
+        [0.0, 0.0, -10.0],
+        [10.0, 10.0, 1.0],
+    );
+    assert_eq!(q, 3);
+    assert!((c - Vector2::new(1.0 / 3.0, 1.0 / 3.0)).amax() < 1e-12);
+}
+
+#[test]
+fn three_concurrent_lines_at_a_vertex() {
+    // The square [0,1]^2 and the line x + y <= 2 through the corner (1,1):
+    // it supports the polygon at that vertex only (Sect. 2.3, Fig. 2).
+    let (q, c) = polygon_case(
+        [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]],
+        [0.0, 0.0, -10.0],
+        [1.0, 1.0, 2.0],
+    );
+    assert_eq!(q, 4);
+    assert!((c - Vector2::new(0.5, 0.5)).amax() < 1e-12);
+}
+
+#[test]
+fn four_concurrent_lines_at_a_vertex() {
+    // Two extra lines through the corner (1,1), both supporting at the vertex only.
+    let (q, c) = polygon_case(
+        [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 2.0]],
+        [0.0, 0.0, -10.0, -10.0],
+        [1.0, 1.0, 2.0, 3.0],
+    );
+    assert_eq!(q, 4);
+    assert!((c - Vector2::new(0.5, 0.5)).amax() < 1e-12);
+}
+
+#[test]
+fn concurrent_lines_cutting_a_corner() {
+    // Square [0,2]^2 cut by x + y <= 3 and 2x + y <= 4.5... both through (1.5, 1.5)
+    // with x + 2y <= 4.5 too: three lines concurrent at a point that is a vertex.
+    let (q, _) = polygon_case(
+        [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 1.0], [1.0, 2.0]],
+        [0.0, 0.0, -10.0, -10.0, -10.0],
+        [2.0, 2.0, 3.0, 4.5, 4.5],
+    );
+    // Vertices: (0,0) (2,0) (2,0.5) (1.5,1.5) (0.5,2) (0,2).
+    assert_eq!(q, 6);
+}
+
+#[test]
+fn parallel_and_duplicate_lines() {
+    // Cables 0 and 2 have parallel rows (a scaled copy) and cable 3 duplicates cable 1.
+    let (q, c) = polygon_case(
+        [[1.0, 0.0], [0.0, 1.0], [2.0, 0.0], [0.0, 1.0]],
+        [0.0, 0.0, -1.0, 0.0],
+        [3.0, 1.0, 4.0, 1.0],
+    );
+    assert_eq!(q, 4);
+    assert!((c - Vector2::new(1.0, 0.5)).amax() < 1e-12);
+}
+
+#[test]
+fn polygon_with_2m_vertices() {
+    // Eight cables whose 16 lines are the edges of a regular 16-gon.
+    const M: usize = 8;
+    let rows: [[f64; 2]; M] = core::array::from_fn(|k| {
+        let a = core::f64::consts::PI * k as f64 / M as f64;
+        [a.cos(), a.sin()]
+    });
+    let (q, c) = polygon_case(rows, [-1.0; M], [1.0; M]);
+    assert_eq!(q, 2 * M);
+    assert!(c.amax() < 1e-12);
+}
+
+#[test]
+fn near_empty_polygon() {
+    // A sliver: 0 <= x <= 1, 0 <= y <= 1e-7.
+    let (q, c) = polygon_case([[1.0, 0.0], [0.0, 1.0]], [0.0, 0.0], [1.0, 1e-7]);
+    assert_eq!(q, 4);
+    assert!((c - Vector2::new(0.5, 0.5e-7)).amax() < 1e-12);
+}
+
+#[test]
+fn single_point_and_segment_polygons() {
+    // A point: x = 1 exactly and y = 2 exactly.
+    let poly = FeasiblePolygon::new(
+        [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)],
+        [1.0, 2.0],
+        [1.0, 2.0],
+    )
+    .unwrap();
+    let walk = poly.walk(None).unwrap();
+    assert!((walk.centroid - Vector2::new(1.0, 2.0)).amax() < 1e-12);
+    assert_eq!(walk.area, 0.0);
+    // A segment: x in [0, 4], y = 1: centroid at its midpoint.
+    let poly = FeasiblePolygon::new(
+        [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)],
+        [0.0, 1.0],
+        [4.0, 1.0],
+    )
+    .unwrap();
+    let walk = poly.walk(None).unwrap();
+    let brute = poly.brute_force().unwrap();
+    assert!(
+        (walk.centroid - Vector2::new(2.0, 1.0)).amax() < 1e-12,
+        "{:?}",
+        walk.centroid
+    );
+    assert!((brute.centroid - Vector2::new(2.0, 1.0)).amax() < 1e-12);
+}
+
+#[test]
+fn empty_polygon_is_infeasible() {
+    // x >= 2 and x <= 1 through two different cables.
+    let poly = FeasiblePolygon::new(
+        [
+            Vector2::new(1.0, 0.0),
+            Vector2::new(1.0, 0.0),
+            Vector2::new(0.0, 1.0),
+        ],
+        [2.0, -5.0, 0.0],
+        [5.0, 1.0, 1.0],
+    )
+    .unwrap();
+    assert_eq!(poly.walk(None).unwrap_err(), Error::Infeasible);
+    assert_eq!(poly.brute_force().unwrap_err(), Error::Infeasible);
+}
+
+#[test]
+fn lost_warm_start_falls_back_to_cold_search() {
+    let poly = FeasiblePolygon::new(
+        [
+            Vector2::new(1.0, 0.0),
+            Vector2::new(0.0, 1.0),
+            Vector2::new(1.0, 1.0),
+        ],
+        [0.0, 0.0, -10.0],
+        [1.0, 1.0, 1.5],
+    )
+    .unwrap();
+    // Cable 2 at its minimum and cable 0 at its max do not meet on the polygon.
+    let pair = ActivePair {
+        first: (2, tension_core::Bound::Min),
+        second: (0, tension_core::Bound::Max),
+    };
+    let warm = poly.walk(Some(pair)).unwrap();
+    assert!(!warm.warm_start_held);
+    let cold = poly.walk(None).unwrap();
+    assert!((warm.centroid - cold.centroid).amax() < 1e-12);
+}

@@ -1,0 +1,188 @@
+//! Test support shared by the workspace's integration tests: the shared robot
+//! files, and reference computations written independently of
+//! `tension-core`'s own algorithms (different decompositions, a different
+//! polygon construction), so that a bug in one is not copied into the check.
+
+use std::path::PathBuf;
+
+use nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use robot_file::RobotFile;
+use tension_core::{Real, Robot, TensionLimits};
+
+/// `../shared` beside the repository (read-only in CI).
+pub fn shared_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("shared")
+}
+
+/// Loads `../shared/robots/<name>.toml` as an `N x M` robot.
+pub fn shared_robot<T: Real, const N: usize, const M: usize>(name: &str) -> Robot<T, N, M> {
+    let path = shared_dir().join("robots").join(format!("{name}.toml"));
+    RobotFile::load(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_robot()
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Orthonormal null-space basis of `w` from the symmetric eigen-decomposition
+/// of `W^T W` (eigenvectors of the `M - N` smallest eigenvalues): a
+/// different algorithm from the Householder QR in `tension-core`.
+pub fn reference_null_space<const N: usize, const M: usize>(
+    w: &SMatrix<f64, N, M>,
+) -> DMatrix<f64> {
+    let wtw = DMatrix::from_fn(M, M, |i, j| w.column(i).dot(&w.column(j)));
+    let eig = wtw.symmetric_eigen();
+    let mut order: Vec<usize> = (0..M).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[a].partial_cmp(&eig.eigenvalues[b]).unwrap());
+    let r = M - N;
+    DMatrix::from_fn(M, r, |i, k| eig.eigenvectors[(i, order[k])])
+}
+
+/// Minimum-norm solution `W^T (W W^T)^-1 f` by LU of `W W^T`.
+pub fn reference_particular<const N: usize, const M: usize>(
+    w: &SMatrix<f64, N, M>,
+    f: &SVector<f64, N>,
+) -> DVector<f64> {
+    let wd = DMatrix::from_fn(N, M, |i, j| w[(i, j)]);
+    let wwt = &wd * wd.transpose();
+    let y = wwt
+        .lu()
+        .solve(&DVector::from_fn(N, |i, _| f[i]))
+        .expect("W W^T singular");
+    wd.transpose() * y
+}
+
+/// The feasible polygon in null-space coordinates built by clipping a large
+/// square with each half-plane in turn (Sutherland-Hodgman), with its area
+/// and centroid by triangulation from the first vertex: independent of the
+/// vertex walk and of the pairwise-intersection enumeration.
+pub struct ClippedPolygon {
+    /// Vertices, in order.
+    pub vertices: Vec<[f64; 2]>,
+    /// Area.
+    pub area: f64,
+    /// Centroid.
+    pub centroid: [f64; 2],
+}
+
+/// Clips the square `|x|, |y| <= radius` by `lo_k <= rows_k . p <= hi_k`.
+pub fn clip_polygon(rows: &[[f64; 2]], lo: &[f64], hi: &[f64], radius: f64) -> ClippedPolygon {
+    let mut poly = vec![
+        [-radius, -radius],
+        [radius, -radius],
+        [radius, radius],
+        [-radius, radius],
+    ];
+    for (k, n) in rows.iter().enumerate() {
+        // n . p <= hi  and  -n . p <= -lo
+        for (a, c) in [([n[0], n[1]], hi[k]), ([-n[0], -n[1]], -lo[k])] {
+            let inside = |p: &[f64; 2]| a[0] * p[0] + a[1] * p[1] <= c;
+            let mut out = Vec::new();
+            for i in 0..poly.len() {
+                let p = poly[i];
+                let q = poly[(i + 1) % poly.len()];
+                let (pin, qin) = (inside(&p), inside(&q));
+                if pin {
+                    out.push(p);
+                }
+                if pin != qin {
+                    let fp = a[0] * p[0] + a[1] * p[1] - c;
+                    let fq = a[0] * q[0] + a[1] * q[1] - c;
+                    let s = fp / (fp - fq);
+                    out.push([p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1])]);
+                }
+            }
+            poly = out;
+            if poly.is_empty() {
+                return ClippedPolygon {
+                    vertices: poly,
+                    area: 0.0,
+                    centroid: [f64::NAN; 2],
+                };
+            }
+        }
+    }
+    // Triangle fan from the first vertex.
+    let o = poly[0];
+    let (mut area, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 1..poly.len().saturating_sub(1) {
+        let (b, c) = (poly[i], poly[i + 1]);
+        let tri = 0.5 * ((b[0] - o[0]) * (c[1] - o[1]) - (c[0] - o[0]) * (b[1] - o[1]));
+        area += tri;
+        cx += tri * (o[0] + b[0] + c[0]) / 3.0;
+        cy += tri * (o[1] + b[1] + c[1]) / 3.0;
+    }
+    let centroid = if area > 0.0 {
+        [cx / area, cy / area]
+    } else {
+        [f64::NAN; 2]
+    };
+    ClippedPolygon {
+        vertices: poly,
+        area,
+        centroid,
+    }
+}
+
+/// The reference barycenter of `W t = f` within `limits` (`M = N + 2`):
+/// `None` when the clipped polygon is empty. Also returns the polygon's area
+/// relative to the square of the tension scale (to skip near-degenerate
+/// cases in comparisons).
+pub fn reference_barycenter<const N: usize, const M: usize>(
+    w: &SMatrix<f64, N, M>,
+    f: &SVector<f64, N>,
+    limits: &TensionLimits<f64, M>,
+) -> Option<(SVector<f64, M>, f64)> {
+    assert_eq!(M, N + 2);
+    let z = reference_null_space(w);
+    let tp = reference_particular(w, f);
+    let rows: Vec<[f64; 2]> = (0..M).map(|k| [z[(k, 0)], z[(k, 1)]]).collect();
+    let lo: Vec<f64> = (0..M).map(|k| limits.min()[k] - tp[k]).collect();
+    let hi: Vec<f64> = (0..M).map(|k| limits.max()[k] - tp[k]).collect();
+    let radius = 4.0 * (limits.max().norm() + tp.norm());
+    let poly = clip_polygon(&rows, &lo, &hi, radius);
+    if poly.vertices.is_empty() || !(poly.area > 0.0) {
+        return None;
+    }
+    let c = poly.centroid;
+    let t = SVector::from_fn(|k, _| tp[k] + z[(k, 0)] * c[0] + z[(k, 1)] * c[1]);
+    let scale = limits.scale();
+    Some((t, poly.area / (scale * scale)))
+}
+
+/// Residual of the analytic centre's optimality conditions (Di Paola et al.
+/// 2024, Eq. 15) with unit weights and no extra constraint: the multipliers
+/// `mu` by least squares (SVD), then `|grad phi + W^T mu|` scaled by the
+/// half-range of the limits, and `|W t - f|` relative to `|f|`.
+pub fn analytic_centre_residual<const N: usize, const M: usize>(
+    w: &SMatrix<f64, N, M>,
+    f: &SVector<f64, N>,
+    limits: &TensionLimits<f64, M>,
+    t: &SVector<f64, M>,
+) -> (f64, f64) {
+    let grad = DVector::from_fn(M, |i, _| {
+        -1.0 / (t[i] - limits.min()[i]) + 1.0 / (limits.max()[i] - t[i])
+    });
+    stationarity_residual(w, &grad, limits, t, f)
+}
+
+/// `|grad + W^T mu|` (least-squares `mu`) times the smallest half-range, and
+/// the relative equality residual.
+pub fn stationarity_residual<const N: usize, const M: usize>(
+    w: &SMatrix<f64, N, M>,
+    grad: &DVector<f64>,
+    limits: &TensionLimits<f64, M>,
+    t: &SVector<f64, M>,
+    f: &SVector<f64, N>,
+) -> (f64, f64) {
+    let wt = DMatrix::from_fn(M, N, |i, j| w[(j, i)]);
+    let svd = wt.clone().svd(true, true);
+    let mu = svd.solve(&(-grad), 1e-14).expect("svd solve");
+    let stationarity = (grad + &wt * mu).norm();
+    let half = (0..M)
+        .map(|i| 0.5 * (limits.max()[i] - limits.min()[i]))
+        .fold(f64::INFINITY, f64::min);
+    let eq = (w * t - f).norm() / (1.0 + f.norm());
+    (stationarity * half, eq)
+}
