@@ -104,6 +104,9 @@ pub fn barycenter<T: Real, const N: usize, const M: usize>(
     limits: &TensionLimits<T, M>,
     warm: Option<ActivePair>,
 ) -> Result<Solution<T, M>, Error> {
+    if M != N + 2 {
+        return Err(Error::UnsupportedShape);
+    }
     barycenter_factored(&WrenchFactorization::new(w)?, f, limits, warm)
 }
 
@@ -126,6 +129,9 @@ pub fn barycenter_brute<T: Real, const N: usize, const M: usize>(
     f: &SVector<T, N>,
     limits: &TensionLimits<T, M>,
 ) -> Result<Solution<T, M>, Error> {
+    if M != N + 2 {
+        return Err(Error::UnsupportedShape);
+    }
     barycenter_brute_factored(&WrenchFactorization::new(w)?, f, limits)
 }
 

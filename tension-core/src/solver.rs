@@ -99,6 +99,9 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         f: &SVector<T, N>,
         limits: &TensionLimits<T, M>,
     ) -> Result<Solution<T, M>, Error> {
+        if !self.method.supports(N, M) {
+            return Err(Error::UnsupportedShape);
+        }
         let solution = match self.method {
             Method::ImprovedClosedForm => improved_closed_form(w, f, limits)?,
             method => {
