@@ -33,7 +33,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::{
     linalg::{cholesky_solve_leading, WrenchFactorization},
-    scalar::all_finite,
+    scalar::{all_finite, greater},
     solution::{robustness, Diagnostics, Solution, WarmStart},
     Error, Real, TensionLimits,
 };
@@ -172,7 +172,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                 return Err(Error::NonFinite);
             }
         }
-        if !(self.settings.tolerance > T::zero()) {
+        if !greater(self.settings.tolerance, T::zero()) {
             return Err(Error::InvalidLimits);
         }
         let r = M - N;
@@ -418,7 +418,7 @@ fn certify_infeasible<T: Real, const N: usize, const M: usize>(
         SVector::<T, M>::from_fn(|i, _| t[i].max(limits.min()[i]).min(limits.max()[i]))
     };
     let lipschitz = w.norm_squared();
-    if !(lipschitz > T::zero()) {
+    if !greater(lipschitz, T::zero()) {
         return false;
     }
     let mut t = clamp(*t0);

@@ -10,7 +10,10 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use crate::{scalar::all_finite, Error, Real, TensionLimits};
+use crate::{
+    scalar::{all_finite, greater},
+    Error, Real, TensionLimits,
+};
 
 /// A pose: `N` numbers in the SPEC's order for the robot's kind.
 pub type Pose<T, const N: usize> = SVector<T, N>;
@@ -375,7 +378,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         }
         let floor = T::lit(1.0e3) * T::eps() * size.max(T::eps());
         for i in 0..M {
-            if !(state.lengths[i] > floor) {
+            if !greater(state.lengths[i], floor) {
                 return Err(Error::DegenerateCable);
             }
             state.directions[i] /= state.lengths[i];

@@ -12,7 +12,10 @@
 
 use nalgebra::{SMatrix, SVector, Vector2};
 
-use crate::{scalar::all_finite, Error, Real};
+use crate::{
+    scalar::{all_finite, greater},
+    Error, Real,
+};
 
 /// `W^T = Q [R; 0]`, computed once per pose and shared by every method.
 #[derive(Debug, Clone)]
@@ -169,7 +172,7 @@ pub fn cholesky_solve_leading<T: Real, const M: usize>(
         for p in 0..j {
             d -= a[(j, p)] * a[(j, p)];
         }
-        if !(d > T::zero()) || !d.is_finite() {
+        if !greater(d, T::zero()) || !d.is_finite() {
             return Err(Error::Singular);
         }
         let d = d.sqrt();
@@ -200,5 +203,83 @@ pub fn cholesky_solve_leading<T: Real, const M: usize>(
         Ok(())
     } else {
         Err(Error::NonFinite)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> SMatrix<f64, 3, 5> {
+        SMatrix::<f64, 3, 5>::from_fn(|i, j| (((i * 5 + j) * (i * 5 + j) + 1) as f64).sin())
+    }
+
+    #[test]
+    fn q_is_orthogonal_and_the_null_columns_annihilate_w() {
+        let w = sample();
+        let fact = WrenchFactorization::new(&w).unwrap();
+        let qtq = fact.q.transpose() * fact.q;
+        assert!((qtq - SMatrix::<f64, 5, 5>::identity()).amax() < 1e-14);
+        for k in 0..fact.redundancy() {
+            let z = SVector::<f64, 5>::from_fn(|i, _| fact.null(i, k));
+            assert!((w * z).amax() < 1e-14);
+        }
+        // W^T = Q_1 R.
+        let q1 = fact.q.fixed_columns::<3>(0);
+        assert!((q1 * fact.r - w.transpose()).amax() < 1e-14);
+    }
+
+    #[test]
+    fn min_norm_solution_is_orthogonal_to_the_null_space() {
+        let w = sample();
+        let fact = WrenchFactorization::new(&w).unwrap();
+        let f = SVector::<f64, 3>::new(1.0, -2.0, 0.5);
+        let t = fact.min_norm_solution(&f);
+        assert!((w * t - f).amax() < 1e-13);
+        for k in 0..2 {
+            let z = SVector::<f64, 5>::from_fn(|i, _| fact.null(i, k));
+            assert!(z.dot(&t).abs() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn dropped_columns_get_zero_and_rank_loss_is_singular() {
+        let w = sample();
+        let keep = [true, false, true, true, true];
+        let fact = WrenchFactorization::with_columns(&w, &keep).unwrap();
+        let f = SVector::<f64, 3>::new(1.0, 2.0, 3.0);
+        let t = fact.min_norm_solution(&f);
+        assert!(t[1].abs() < 1e-13);
+        assert!((w * t - f).amax() < 1e-12);
+        let mut rank2 = w;
+        let r0 = rank2.row(0).into_owned();
+        rank2.set_row(2, &(r0 * 2.0));
+        assert_eq!(
+            WrenchFactorization::new(&rank2).unwrap_err(),
+            Error::Singular
+        );
+        let mut nan = w;
+        nan[(1, 1)] = f64::NAN;
+        assert_eq!(
+            WrenchFactorization::new(&nan).unwrap_err(),
+            Error::NonFinite
+        );
+    }
+
+    #[test]
+    fn cholesky_on_the_leading_block() {
+        let mut a = SMatrix::<f64, 4, 4>::from_fn(|i, j| if i == j { 4.0 } else { 1.0 });
+        a[(3, 3)] = f64::NAN; // outside the 3 x 3 block: never read
+        let mut b = SVector::<f64, 4>::new(6.0, 6.0, 6.0, f64::NAN);
+        cholesky_solve_leading(&mut a, &mut b, 3).unwrap();
+        for i in 0..3 {
+            assert!((b[i] - 1.0).abs() < 1e-14);
+        }
+        let mut indefinite = SMatrix::<f64, 2, 2>::new(1.0, 2.0, 2.0, 1.0);
+        let mut rhs = SVector::<f64, 2>::new(1.0, 1.0);
+        assert_eq!(
+            cholesky_solve_leading(&mut indefinite, &mut rhs, 2).unwrap_err(),
+            Error::Singular
+        );
     }
 }

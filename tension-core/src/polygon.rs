@@ -190,7 +190,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     #[inline]
     fn normal(&self, h: usize) -> Vector2<T> {
         let n = self.rows[h / 2];
-        if h % 2 == 0 {
+        if h.is_multiple_of(2) {
             -n
         } else {
             n
@@ -199,7 +199,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 
     #[inline]
     fn offset(&self, h: usize) -> T {
-        if h % 2 == 0 {
+        if h.is_multiple_of(2) {
             -self.lower[h / 2]
         } else {
             self.upper[h / 2]

@@ -38,3 +38,10 @@ impl Real for f32 {
 pub(crate) fn all_finite<T: Real>(values: impl IntoIterator<Item = T>) -> bool {
     values.into_iter().all(|v| v.is_finite())
 }
+
+/// `a > b`, false when either is NaN (written as a call so that the NaN case
+/// reads as intended where it is negated).
+#[inline]
+pub(crate) fn greater<T: Real>(a: T, b: T) -> bool {
+    a > b
+}

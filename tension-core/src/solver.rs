@@ -129,3 +129,48 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         Ok(solution)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_shapes() {
+        for m in Method::ALL {
+            assert_eq!(Method::from_name(m.name()), Some(m));
+        }
+        assert_eq!(Method::from_name("barycentre"), None);
+        assert!(Method::Barycenter.supports(6, 8) && !Method::Barycenter.supports(6, 7));
+        assert!(Method::ImprovedClosedForm.supports(6, 12) && !Method::ClosedForm.supports(6, 5));
+    }
+
+    #[test]
+    fn failed_call_keeps_the_warm_start_and_reset_forgets_it() {
+        let w = SMatrix::<f64, 1, 3>::new(1.0, 1.0, 1.0);
+        let limits = TensionLimits::uniform(1.0, 10.0).unwrap();
+        let mut solver = TensionSolver::<f64, 3>::new(Method::Barycenter);
+        solver
+            .solve(&w, &SVector::<f64, 1>::new(12.0), &limits)
+            .unwrap();
+        let pair = solver.previous_pair;
+        assert!(pair.is_some());
+        assert_eq!(
+            solver
+                .solve(&w, &SVector::<f64, 1>::new(100.0), &limits)
+                .unwrap_err(),
+            Error::Infeasible
+        );
+        assert_eq!(solver.previous_pair, pair);
+        let again = solver
+            .solve(&w, &SVector::<f64, 1>::new(12.0), &limits)
+            .unwrap();
+        assert_eq!(again.diagnostics.warm_start, crate::WarmStart::Held);
+        solver.reset();
+        let cold = solver
+            .solve(&w, &SVector::<f64, 1>::new(12.0), &limits)
+            .unwrap();
+        assert_eq!(cold.diagnostics.warm_start, crate::WarmStart::NotGiven);
+        // Sum 12 in [1, 10]^3: the triangle's centroid is 4 each.
+        assert!((cold.tensions - SVector::<f64, 3>::repeat(4.0)).amax() < 1e-12);
+    }
+}

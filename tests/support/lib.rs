@@ -142,7 +142,7 @@ pub fn reference_barycenter<const N: usize, const M: usize>(
     let hi: Vec<f64> = (0..M).map(|k| limits.max()[k] - tp[k]).collect();
     let radius = 4.0 * (limits.max().norm() + tp.norm());
     let poly = clip_polygon(&rows, &lo, &hi, radius);
-    if poly.vertices.is_empty() || !(poly.area > 0.0) {
+    if poly.vertices.is_empty() || poly.area.is_nan() || poly.area <= 0.0 {
         return None;
     }
     let c = poly.centroid;
