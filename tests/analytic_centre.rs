@@ -101,6 +101,11 @@ fn optimality_conditions_hold_6x8() {
 }
 
 #[test]
+fn optimality_conditions_hold_6x9() {
+    random_cases::<6, 9>(300);
+}
+
+#[test]
 fn optimality_conditions_hold_6x10() {
     random_cases::<6, 10>(300);
 }

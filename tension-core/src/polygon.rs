@@ -129,6 +129,7 @@ pub struct PolygonCentroid<T: Real, const M: usize> {
 #[derive(Debug, Clone)]
 pub struct FeasiblePolygon<T: Real, const M: usize> {
     rows: [Vector2<T>; M],
+    norms: [T; M],
     lower: [T; M],
     upper: [T; M],
     used: [bool; M],
@@ -149,11 +150,12 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         if !finite {
             return Err(Error::NonFinite);
         }
+        let norms: [T; M] = core::array::from_fn(|k| rows[k].norm());
         let mut scale = T::zero();
         let mut row_max = T::zero();
         for k in 0..M {
             scale = scale.max(lower[k].abs()).max(upper[k].abs());
-            row_max = row_max.max(rows[k].norm());
+            row_max = row_max.max(norms[k]);
         }
         if row_max == T::zero() {
             return Err(Error::Singular);
@@ -166,7 +168,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             if lower[k] > upper[k] {
                 return Err(Error::InvalidLimits);
             }
-            if rows[k].norm() <= row_floor {
+            if norms[k] <= row_floor {
                 if lower[k] > tol || upper[k] < -tol {
                     return Err(Error::Infeasible);
                 }
@@ -175,6 +177,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         }
         Ok(Self {
             rows,
+            norms,
             lower,
             upper,
             used,
@@ -227,7 +230,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let a1 = self.normal(h1);
         let a2 = self.normal(h2);
         let det = a1.x * a2.y - a1.y * a2.x;
-        if det.abs() <= T::lit(16.0) * T::eps() * a1.norm() * a2.norm() {
+        if det.abs() <= T::lit(16.0) * T::eps() * self.norms[h1 / 2] * self.norms[h2 / 2] {
             return None;
         }
         let c1 = self.offset(h1);
@@ -350,7 +353,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 }
                 let a = self.normal(g);
                 if a.dot(&d) > self.dir_tol(g) && self.slack(g, &w_guess) <= self.tol {
-                    let cos = a.dot(&o) / a.norm();
+                    let cos = a.dot(&o) / self.norms[g / 2];
                     if cos < best_cos {
                         best_cos = cos;
                         next = Some(g);
@@ -381,7 +384,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// Threshold for "moving along `d` approaches line `g`".
     #[inline]
     fn dir_tol(&self, g: usize) -> T {
-        T::lit(16.0) * T::eps() * self.rows[g / 2].norm()
+        T::lit(16.0) * T::eps() * self.norms[g / 2]
     }
 
     /// Every pairwise intersection that is feasible, merged within the
@@ -436,7 +439,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         for v in vertices.iter() {
             let margin = (0..2 * M)
                 .filter(|&g| self.is_used(g) && g != v.lines.0 as usize && g != v.lines.1 as usize)
-                .map(|g| self.slack(g, &v.point) / self.rows[g / 2].norm())
+                .map(|g| self.slack(g, &v.point) / self.norms[g / 2])
                 .fold(T::max_value().unwrap_or_else(T::one), |a, b| a.min(b));
             if margin > best_margin {
                 best_margin = margin;

@@ -1,0 +1,105 @@
+//! Host checks and tests, each counted as passed or failed.
+
+use std::{
+    io::{BufRead, BufReader},
+    process::{Command, Stdio},
+};
+
+/// Running totals; the test command prints them last as `N passed, N failed`.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Tally {
+    pub passed: usize,
+    pub failed: usize,
+}
+
+impl Tally {
+    pub fn add(&mut self, other: Tally) {
+        self.passed += other.passed;
+        self.failed += other.failed;
+    }
+
+    fn one(ok: bool) -> Tally {
+        Tally {
+            passed: ok as usize,
+            failed: !ok as usize,
+        }
+    }
+}
+
+/// Runs a command that counts as one check (formatting, lint, a build).
+pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
+    println!("==> {name}: {program} {}", args.join(" "));
+    let ok = Command::new(program)
+        .args(args)
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    println!("==> {name}: {}", if ok { "ok" } else { "FAILED" });
+    Tally::one(ok)
+}
+
+/// Runs `cargo test` with `args`, echoing its output, and adds up the
+/// `test result:` lines. A run that fails without any result line (a build
+/// error) counts as one failure.
+pub fn cargo_test(args: &[&str]) -> Tally {
+    println!("==> cargo test {}", args.join(" "));
+    let mut child = match Command::new(env!("CARGO"))
+        .arg("test")
+        .args(args)
+        .stdout(Stdio::piped())
+        .spawn()
+    {
+        Ok(child) => child,
+        Err(e) => {
+            println!("==> cannot run cargo test: {e}");
+            return Tally::one(false);
+        }
+    };
+    let mut tally = Tally::default();
+    let mut saw_result = false;
+    if let Some(out) = child.stdout.take() {
+        for line in BufReader::new(out).lines().map_while(Result::ok) {
+            println!("{line}");
+            if let Some(result) = parse_result(&line) {
+                saw_result = true;
+                tally.add(result);
+            }
+        }
+    }
+    let ok = child.wait().map(|s| s.success()).unwrap_or(false);
+    if !ok && (!saw_result || tally.failed == 0) {
+        tally.failed += 1;
+    }
+    tally
+}
+
+/// `test result: ok. 12 passed; 0 failed; ...` -> (12, 0).
+fn parse_result(line: &str) -> Option<Tally> {
+    let rest = line.trim().strip_prefix("test result: ")?;
+    let count = |word: &str| -> Option<usize> {
+        let at = rest.find(&format!(" {word}"))?;
+        rest[..at]
+            .rsplit(|c: char| !c.is_ascii_digit())
+            .next()?
+            .parse()
+            .ok()
+    };
+    Some(Tally {
+        passed: count("passed")?,
+        failed: count("failed")?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_cargo_result_lines() {
+        let t = parse_result("test result: ok. 12 passed; 0 failed; 0 ignored; 0 measured; 0 filtered out; finished in 0.02s").unwrap();
+        assert_eq!((t.passed, t.failed), (12, 0));
+        let t = parse_result("test result: FAILED. 3 passed; 2 failed; 0 ignored").unwrap();
+        assert_eq!((t.passed, t.failed), (3, 2));
+        assert!(parse_result("running 3 tests").is_none());
+    }
+}
