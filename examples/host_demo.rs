@@ -34,8 +34,7 @@ fn main() {
     );
     let mut solvers: Vec<TensionSolver<f64, 8>> =
         Method::ALL.iter().map(|&m| TensionSolver::new(m)).collect();
-    let mut stats =
-        vec![(0usize, 0usize, 0.0f64, 0.0f64, None::<SVector<f64, 8>>); Method::ALL.len()];
+    let mut stats = vec![(0usize, 0usize, 0.0f64, 0.0f64, None::<SVector<f64, 8>>); Method::ALL.len()];
     let mut k = 0usize;
     for pair in waypoints.windows(2) {
         let delta = pair[1] - pair[0];
@@ -50,9 +49,7 @@ fn main() {
             )
             .unwrap();
             let w = robot.wrench_matrix(&pose).unwrap();
-            let f = robot
-                .required_wrench(&pose, &SVector::zeros(), Some(&motion))
-                .unwrap();
+            let f = robot.required_wrench(&pose, &SVector::zeros(), Some(&motion)).unwrap();
             for (i, solver) in solvers.iter_mut().enumerate() {
                 let start = Instant::now();
                 let result = solver.solve(&w, &f, robot.limits());
@@ -65,8 +62,7 @@ fn main() {
                         }
                         stats[i].4 = Some(sol.tensions);
                         if i == 0 && k.is_multiple_of(100) {
-                            let t: Vec<String> =
-                                sol.tensions.iter().map(|x| format!("{x:6.1}")).collect();
+                            let t: Vec<String> = sol.tensions.iter().map(|x| format!("{x:6.1}")).collect();
                             println!(
                                 "{:6.2} {:6.3} {:6.3} {:6.3} {:6.3} {} {:6.2} {:>4} {:>5}",
                                 k as f64 / 1000.0,
@@ -114,13 +110,6 @@ fn main() {
         "method", "solved", "failed", "largest step [N]", "mean [us]"
     );
     for (m, s) in Method::ALL.iter().zip(&stats) {
-        println!(
-            "{:<22} {:>7} {:>10} {:>16.3} {:>12.2}",
-            m.name(),
-            s.0,
-            s.1,
-            s.2,
-            s.3 / k as f64 * 1e6
-        );
+        println!("{:<22} {:>7} {:>10} {:>16.3} {:>12.2}", m.name(), s.0, s.1, s.2, s.3 / k as f64 * 1e6);
     }
 }

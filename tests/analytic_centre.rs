@@ -9,8 +9,8 @@ use cdpr_integration_tests::{analytic_centre_residual, shared_robot, stationarit
 use nalgebra::{DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
 use tension_core::{
-    analytic_centre, barycenter, AnalyticCentre, BarrierWeights, ConvexConstraint, Error, Motion,
-    Robot, TensionLimits, WarmStart,
+    analytic_centre, barycenter, AnalyticCentre, BarrierWeights, ConvexConstraint, Error, Motion, Robot,
+    TensionLimits, WarmStart,
 };
 
 fn problem<const N: usize, const M: usize>(
@@ -154,18 +154,11 @@ fn motivating_example_black_case() {
             lo = mid;
         }
     }
-    assert!(
-        (sol.tensions[0] - lo).abs() < 1e-9,
-        "{} vs {lo}",
-        sol.tensions[0]
-    );
+    assert!((sol.tensions[0] - lo).abs() < 1e-9, "{} vs {lo}", sol.tensions[0]);
     assert!((sol.tensions[1] - t2(lo)).abs() < 1e-9);
     // The paper's point: the closed form leaves the box here (Fig. 1-b),
     // (55, 55) + (-7, 20) 1075 / 449 = (38.24, 102.88), the centre does not.
-    assert_eq!(
-        tension_core::closed_form(&w, &f, &limits).unwrap_err(),
-        Error::MethodFailed
-    );
+    assert_eq!(tension_core::closed_form(&w, &f, &limits).unwrap_err(), Error::MethodFailed);
 }
 
 /// The blue and green cases of the same example are close data with close
@@ -187,12 +180,7 @@ fn motivating_example_blue_and_green_are_close() {
         None,
     )
     .unwrap();
-    assert!(
-        (blue.tensions - green.tensions).amax() < 5.0,
-        "{:?} {:?}",
-        blue.tensions,
-        green.tensions
-    );
+    assert!((blue.tensions - green.tensions).amax() < 5.0, "{:?} {:?}", blue.tensions, green.tensions);
     // Closed form (hand-computed): blue (55.70, 20.01), green (54.30, 20.01).
     let cf = tension_core::closed_form(
         &SMatrix::<f64, 1, 2>::new(-1.0, 50.0),
@@ -209,9 +197,7 @@ fn weights_push_away_from_their_bound() {
     let robot: Robot<f64, 6, 8> = shared_robot("suspended-8");
     let pose = SVector::<f64, 6>::new(0.2, -0.1, 1.2, 0.05, -0.05, 0.1);
     let w = robot.wrench_matrix(&pose).unwrap();
-    let f = robot
-        .required_wrench(&pose, &SVector::zeros(), None)
-        .unwrap();
+    let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
     let plain = analytic_centre(&w, &f, robot.limits(), None).unwrap();
     let mut lower = SVector::<f64, 8>::repeat(1.0);
     lower[0] = 20.0;
@@ -284,39 +270,17 @@ fn friction_constraints_of_a_mobile_base() {
     for step in 0..=100 {
         let s = step as f64 / 100.0;
         let angle = 2.0 * std::f64::consts::PI * s;
-        let pose = SVector::<f64, 2>::new(
-            0.5 * (angle.cos() + 1.75) + 0.2,
-            0.5 * (angle.sin() + 1.75) - 0.2,
-        );
+        let pose = SVector::<f64, 2>::new(0.5 * (angle.cos() + 1.75) + 0.2, 0.5 * (angle.sin() + 1.75) - 0.2);
         let cables = robot.cables(&pose).unwrap();
         let u = |i: usize| [-cables.directions[i].x, -cables.directions[i].y];
         // Base 1 holds cables 1 and 4 (indices 0, 3), base 2 cables 2 and 3.
-        let base1 = Friction {
-            a: 0,
-            b: 3,
-            ua: u(0),
-            ub: u(3),
-            limit,
-        };
-        let base2 = Friction {
-            a: 1,
-            b: 2,
-            ua: u(1),
-            ub: u(2),
-            limit,
-        };
+        let base1 = Friction { a: 0, b: 3, ua: u(0), ub: u(3), limit };
+        let base2 = Friction { a: 1, b: 2, ua: u(1), ub: u(2), limit };
         let constraints: [&dyn ConvexConstraint<f64, 4>; 2] = [&base1, &base2];
         let w = robot.wrench_matrix(&pose).unwrap();
-        let f = robot
-            .required_wrench(&pose, &SVector::zeros(), None)
-            .unwrap();
-        let problem = AnalyticCentre {
-            constraints: &constraints,
-            ..AnalyticCentre::default()
-        };
-        let sol = problem
-            .solve(&w, &f, robot.limits(), previous.as_ref())
-            .unwrap();
+        let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
+        let problem = AnalyticCentre { constraints: &constraints, ..AnalyticCentre::default() };
+        let sol = problem.solve(&w, &f, robot.limits(), previous.as_ref()).unwrap();
         let t = sol.tensions;
         assert!(base1.value(&t) < 0.0 && base2.value(&t) < 0.0);
         let grad = DVector::from_fn(4, |i, _| {
@@ -333,10 +297,7 @@ fn friction_constraints_of_a_mobile_base() {
         }
         previous = Some(t);
     }
-    assert!(
-        slid_without > 0,
-        "the example should show sliding without the friction constraints"
-    );
+    assert!(slid_without > 0, "the example should show sliding without the friction constraints");
 }
 
 #[test]
@@ -347,13 +308,9 @@ fn symmetric_pose_gives_symmetric_answer() {
     let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
     let pose = SVector::<f64, 6>::new(0.0, 0.0, 1.0, 0.0, 0.0, 0.0);
     let w = robot.wrench_matrix(&pose).unwrap();
-    let f = robot
-        .required_wrench(&pose, &SVector::zeros(), None)
-        .unwrap();
+    let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
     for t in [
-        analytic_centre(&w, &f, robot.limits(), None)
-            .unwrap()
-            .tensions,
+        analytic_centre(&w, &f, robot.limits(), None).unwrap().tensions,
         barycenter(&w, &f, robot.limits(), None).unwrap().tensions,
     ] {
         for i in 1..4 {

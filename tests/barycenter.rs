@@ -8,8 +8,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use proptest::{prelude::*, test_runner::TestRunner};
 use tension_core::{
-    barycenter, barycenter_brute, polygon::FeasiblePolygon, ActivePair, Error, TensionLimits,
-    WarmStart,
+    barycenter, barycenter_brute, polygon::FeasiblePolygon, ActivePair, Error, TensionLimits, WarmStart,
 };
 
 /// Relative agreement of two tension vectors against the tension scale.
@@ -24,11 +23,7 @@ fn check_solution<const N: usize, const M: usize>(
     t: &SVector<f64, M>,
 ) {
     let scale = limits.scale();
-    assert!(
-        (w * t - f).amax() <= 1e-9 * (1.0 + f.amax() + scale),
-        "W t != f: {}",
-        (w * t - f).amax()
-    );
+    assert!((w * t - f).amax() <= 1e-9 * (1.0 + f.amax() + scale), "W t != f: {}", (w * t - f).amax());
     for i in 0..M {
         assert!(t[i] >= limits.min()[i] - 1e-9 * scale && t[i] <= limits.max()[i] + 1e-9 * scale);
     }
@@ -56,11 +51,7 @@ fn compare<const N: usize, const M: usize>(
             );
             if let Some((r, rel_area)) = reference {
                 if rel_area > 1e-6 {
-                    assert!(
-                        close(&a.tensions, &r, scale, 1e-7),
-                        "walk {:?}\nreference {r:?}",
-                        a.tensions
-                    );
+                    assert!(close(&a.tensions, &r, scale, 1e-7), "walk {:?}\nreference {r:?}", a.tensions);
                 }
             }
             // Warm start from the returned pair gives the same answer.
@@ -72,10 +63,7 @@ fn compare<const N: usize, const M: usize>(
         }
         (Err(Error::Infeasible), Err(Error::Infeasible)) => {
             if let Some((_, rel_area)) = reference {
-                assert!(
-                    rel_area < 1e-9,
-                    "reference finds a polygon of relative area {rel_area}"
-                );
+                assert!(rel_area < 1e-9, "reference finds a polygon of relative area {rel_area}");
             }
             false
         }
@@ -124,10 +112,7 @@ fn random_cases<const N: usize, const M: usize>(cases: u32) {
         })
         .unwrap();
     let (ok, no) = (feasible.into_inner(), infeasible.into_inner());
-    assert!(
-        ok >= cases as usize / 5 && no >= cases as usize / 20,
-        "{ok} feasible, {no} infeasible"
-    );
+    assert!(ok >= cases as usize / 5 && no >= cases as usize / 20, "{ok} feasible, {no} infeasible");
 }
 
 #[test]
@@ -153,20 +138,11 @@ fn walk_matches_brute_and_reference_1x3() {
 // ---- Constructed polygons, directly in null-space coordinates ----
 
 /// Runs walk, brute and clipping on half-planes `lo_k <= n_k . x <= hi_k`.
-fn polygon_case<const M: usize>(
-    rows: [[f64; 2]; M],
-    lo: [f64; M],
-    hi: [f64; M],
-) -> (usize, Vector2<f64>) {
+fn polygon_case<const M: usize>(rows: [[f64; 2]; M], lo: [f64; M], hi: [f64; M]) -> (usize, Vector2<f64>) {
     let poly = FeasiblePolygon::new(rows.map(|r| Vector2::new(r[0], r[1])), lo, hi).unwrap();
     let walk = poly.walk(None).expect("walk");
     let brute = poly.brute_force().expect("brute");
-    assert!(
-        (walk.centroid - brute.centroid).amax() < 1e-9,
-        "{:?} vs {:?}",
-        walk.centroid,
-        brute.centroid
-    );
+    assert!((walk.centroid - brute.centroid).amax() < 1e-9, "{:?} vs {:?}", walk.centroid, brute.centroid);
     assert_eq!(walk.vertices.len(), brute.vertices.len());
     let clipped = clip_polygon(&rows, &lo, &hi, 1e3);
     if clipped.area > 1e-9 {
@@ -179,19 +155,11 @@ fn polygon_case<const M: usize>(
         let pair = ActivePair {
             first: (
                 (v.lines.0 / 2),
-                if v.lines.0 % 2 == 1 {
-                    tension_core::Bound::Max
-                } else {
-                    tension_core::Bound::Min
-                },
+                if v.lines.0 % 2 == 1 { tension_core::Bound::Max } else { tension_core::Bound::Min },
             ),
             second: (
                 (v.lines.1 / 2),
-                if v.lines.1 % 2 == 1 {
-                    tension_core::Bound::Max
-                } else {
-                    tension_core::Bound::Min
-                },
+                if v.lines.1 % 2 == 1 { tension_core::Bound::Max } else { tension_core::Bound::Min },
             ),
         };
         let warm = poly.walk(Some(pair)).expect("warm walk");
@@ -211,11 +179,7 @@ fn unit_square() {
 #[test]
 fn triangle_from_three_cables() {
     // x >= 0, y >= 0, x + y <= 1: centroid (1/3, 1/3); the other bounds far away.
-    let (q, c) = polygon_case(
-        [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]],
-        [0.0, 0.0, -10.0],
-        [10.0, 10.0, 1.0],
-    );
+    let (q, c) = polygon_case([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], [0.0, 0.0, -10.0], [10.0, 10.0, 1.0]);
     assert_eq!(q, 3);
     assert!((c - Vector2::new(1.0 / 3.0, 1.0 / 3.0)).amax() < 1e-12);
 }
@@ -224,11 +188,7 @@ fn triangle_from_three_cables() {
 fn three_concurrent_lines_at_a_vertex() {
     // The square [0,1]^2 and the line x + y <= 2 through the corner (1,1):
     // it supports the polygon at that vertex only (Sect. 2.3, Fig. 2).
-    let (q, c) = polygon_case(
-        [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]],
-        [0.0, 0.0, -10.0],
-        [1.0, 1.0, 2.0],
-    );
+    let (q, c) = polygon_case([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], [0.0, 0.0, -10.0], [1.0, 1.0, 2.0]);
     assert_eq!(q, 4);
     assert!((c - Vector2::new(0.5, 0.5)).amax() < 1e-12);
 }
@@ -294,29 +254,17 @@ fn near_empty_polygon() {
 #[test]
 fn single_point_and_segment_polygons() {
     // A point: x = 1 exactly and y = 2 exactly.
-    let poly = FeasiblePolygon::new(
-        [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)],
-        [1.0, 2.0],
-        [1.0, 2.0],
-    )
-    .unwrap();
+    let poly = FeasiblePolygon::new([Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)], [1.0, 2.0], [1.0, 2.0])
+        .unwrap();
     let walk = poly.walk(None).unwrap();
     assert!((walk.centroid - Vector2::new(1.0, 2.0)).amax() < 1e-12);
     assert_eq!(walk.area, 0.0);
     // A segment: x in [0, 4], y = 1: centroid at its midpoint.
-    let poly = FeasiblePolygon::new(
-        [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)],
-        [0.0, 1.0],
-        [4.0, 1.0],
-    )
-    .unwrap();
+    let poly = FeasiblePolygon::new([Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)], [0.0, 1.0], [4.0, 1.0])
+        .unwrap();
     let walk = poly.walk(None).unwrap();
     let brute = poly.brute_force().unwrap();
-    assert!(
-        (walk.centroid - Vector2::new(2.0, 1.0)).amax() < 1e-12,
-        "{:?}",
-        walk.centroid
-    );
+    assert!((walk.centroid - Vector2::new(2.0, 1.0)).amax() < 1e-12, "{:?}", walk.centroid);
     assert!((brute.centroid - Vector2::new(2.0, 1.0)).amax() < 1e-12);
 }
 
@@ -324,11 +272,7 @@ fn single_point_and_segment_polygons() {
 fn empty_polygon_is_infeasible() {
     // x >= 2 and x <= 1 through two different cables.
     let poly = FeasiblePolygon::new(
-        [
-            Vector2::new(1.0, 0.0),
-            Vector2::new(1.0, 0.0),
-            Vector2::new(0.0, 1.0),
-        ],
+        [Vector2::new(1.0, 0.0), Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)],
         [2.0, -5.0, 0.0],
         [5.0, 1.0, 1.0],
     )
@@ -340,22 +284,95 @@ fn empty_polygon_is_infeasible() {
 #[test]
 fn lost_warm_start_falls_back_to_cold_search() {
     let poly = FeasiblePolygon::new(
-        [
-            Vector2::new(1.0, 0.0),
-            Vector2::new(0.0, 1.0),
-            Vector2::new(1.0, 1.0),
-        ],
+        [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0), Vector2::new(1.0, 1.0)],
         [0.0, 0.0, -10.0],
         [1.0, 1.0, 1.5],
     )
     .unwrap();
     // Cable 2 at its minimum and cable 0 at its max do not meet on the polygon.
-    let pair = ActivePair {
-        first: (2, tension_core::Bound::Min),
-        second: (0, tension_core::Bound::Max),
-    };
+    let pair = ActivePair { first: (2, tension_core::Bound::Min), second: (0, tension_core::Bound::Max) };
     let warm = poly.walk(Some(pair)).unwrap();
     assert!(!warm.warm_start_held);
     let cold = poly.walk(None).unwrap();
     assert!((warm.centroid - cold.centroid).amax() < 1e-12);
+}
+
+#[test]
+#[allow(clippy::excessive_precision)]
+fn nearly_parallel_lines_meeting_at_the_first_vertex() {
+    // IPAnema 1 on a dynamic trajectory: the null-space rows come in nearly
+    // parallel pairs, so the first vertex found (cables 0 and 2 at t_max)
+    // is the crossing of two lines 0.03 degrees apart, and its computed slacks
+    // exceed the tolerance. The walk once stopped there with a single vertex.
+    let rows = [
+        [-4.70410371483061945e-2, 4.98217832885124057e-1],
+        [4.97337704476146558e-1, 4.70895894606125354e-2],
+        [-4.67610291356474611e-2, 4.97870436930976878e-1],
+        [4.97546606677496894e-1, 4.62408470394958387e-2],
+        [4.98148651711220747e-1, 4.72330421089394159e-2],
+        [-4.67001045788985741e-2, 4.97677621501716017e-1],
+        [4.98072638265039336e-1, 4.78306038684866153e-2],
+        [-4.78935998919287759e-2, 4.97339553804054091e-1],
+    ];
+    let lo = [
+        6.82404379276539186e-1,
+        6.74798504493149931e-1,
+        6.78097827752953464e-1,
+        6.85703820672343145e-1,
+        1.32211360798852451e0,
+        1.31346955371184215e0,
+        1.31701152867836391e0,
+        1.32565329240724861e0,
+    ];
+    let hi = lo.map(|x| x + 9.0);
+    let (q, _) = polygon_case(rows, lo, hi);
+    assert_eq!(q, 5);
+}
+
+/// Polygons whose lines come in nearly parallel bundles (symmetric robots):
+/// the walk, the brute force and the clipping reference agree.
+#[test]
+fn nearly_parallel_bundles() {
+    let mut runner = TestRunner::new(ProptestConfig::with_cases(2000));
+    let strategy = (
+        prop::collection::vec(0.0f64..std::f64::consts::PI, 2),
+        prop::collection::vec(-1e-3f64..1e-3, 16),
+        prop::collection::vec(-0.5f64..0.5, 8),
+        0.5f64..10.0,
+    );
+    runner
+        .run(&strategy, |(angles, jitter, shift, width)| {
+            let rows: [[f64; 2]; 8] = core::array::from_fn(|k| {
+                let a = angles[k % 2] + jitter[2 * k];
+                [0.5 * a.cos() + jitter[2 * k + 1], 0.5 * a.sin()]
+            });
+            let lo: [f64; 8] = core::array::from_fn(|k| shift[k]);
+            let hi: [f64; 8] = core::array::from_fn(|k| shift[k] + width);
+            let poly = FeasiblePolygon::new(rows.map(|r| Vector2::new(r[0], r[1])), lo, hi).unwrap();
+            match (poly.walk(None), poly.brute_force()) {
+                (Ok(a), Ok(b)) => {
+                    prop_assert!(
+                        (a.centroid - b.centroid).amax() < 1e-9 * (1.0 + b.centroid.amax()),
+                        "{:?} vs {:?}",
+                        a.centroid,
+                        b.centroid
+                    );
+                    let clipped = clip_polygon(&rows, &lo, &hi, 1e4);
+                    if clipped.area > 1e-6 {
+                        prop_assert!(
+                            (a.centroid.x - clipped.centroid[0]).abs()
+                                < 1e-6 * (1.0 + clipped.centroid[0].abs())
+                        );
+                        prop_assert!(
+                            (a.centroid.y - clipped.centroid[1]).abs()
+                                < 1e-6 * (1.0 + clipped.centroid[1].abs())
+                        );
+                    }
+                }
+                (Err(Error::Infeasible), Err(Error::Infeasible)) => {}
+                other => prop_assert!(false, "{other:?}"),
+            }
+            Ok(())
+        })
+        .unwrap();
 }

@@ -96,12 +96,7 @@ fn check<const N: usize, const M: usize>(
     let cf = closed_form(&w, &f, &limits);
     match &cf {
         Ok(sol) => {
-            prop_assert!(
-                plain_ok
-                    || plain
-                        .iter()
-                        .all(|&t| t >= lo - 1e-9 * scale && t <= hi + 1e-9 * scale)
-            );
+            prop_assert!(plain_ok || plain.iter().all(|&t| t >= lo - 1e-9 * scale && t <= hi + 1e-9 * scale));
             for i in 0..M {
                 prop_assert!((sol.tensions[i] - plain[i]).abs() < 1e-9 * scale);
             }
@@ -111,9 +106,9 @@ fn check<const N: usize, const M: usize>(
             let radius = 0.5 * (hi - lo) * (M as f64).sqrt();
             prop_assert!((&plain - &middle).norm() > radius * (1.0 - 1e-9));
         }
-        Err(Error::MethodFailed) => prop_assert!(!plain
-            .iter()
-            .all(|&t| t >= lo + 1e-9 * scale && t <= hi - 1e-9 * scale)),
+        Err(Error::MethodFailed) => {
+            prop_assert!(!plain.iter().all(|&t| t >= lo + 1e-9 * scale && t <= hi - 1e-9 * scale))
+        }
         Err(e) => prop_assert!(false, "closed form: {e:?}"),
     }
     let icf = improved_closed_form(&w, &f, &limits);
@@ -123,11 +118,7 @@ fn check<const N: usize, const M: usize>(
             prop_assert!((w * sol.tensions - f).amax() < 1e-9 * (1.0 + f.amax()));
             for i in 0..M {
                 prop_assert!(sol.tensions[i] >= lo && sol.tensions[i] <= hi);
-                prop_assert!(
-                    (sol.tensions[i] - r[i]).abs() < 1e-7 * scale,
-                    "{:?} vs {r:?}",
-                    sol.tensions
-                );
+                prop_assert!((sol.tensions[i] - r[i]).abs() < 1e-7 * scale, "{:?} vs {r:?}", sol.tensions);
             }
         }
         (Err(Error::Infeasible) | Err(Error::MethodFailed), None) => {}
@@ -185,20 +176,13 @@ fn improved_form_extends_the_plain_one_near_the_border() {
     // W' = [1 1 1; 1 -1 -2], f' = (14, 2); from 5.5 the residual is (-2.5, 13),
     // W' W'^T = [3 -2; -2 6], y = [6 2; 2 3] / 14 (-2.5, 13) = (11/14, 34/14).
     let f = SVector::<f64, 2>::new(24.0, 22.0);
-    assert_eq!(
-        closed_form(&w, &f, &limits).unwrap_err(),
-        Error::MethodFailed
-    );
+    assert_eq!(closed_form(&w, &f, &limits).unwrap_err(), Error::MethodFailed);
     let sol = improved_closed_form(&w, &f, &limits).unwrap();
     assert_eq!(sol.tensions[2], 10.0);
     assert_eq!(sol.diagnostics.fixed_cables, 1);
     let (y0, y1) = (11.0 / 14.0, 34.0 / 14.0);
     let expected = [5.5 + y0 + y1, 5.5 + y0 - y1, 10.0, 5.5 + y0 - 2.0 * y1];
     for i in 0..4 {
-        assert!(
-            (sol.tensions[i] - expected[i]).abs() < 1e-12,
-            "{:?} vs {expected:?}",
-            sol.tensions
-        );
+        assert!((sol.tensions[i] - expected[i]).abs() < 1e-12, "{:?} vs {expected:?}", sol.tensions);
     }
 }

@@ -20,9 +20,7 @@
 
 use cdpr_integration_tests::{reference_barycenter, shared_robot};
 use nalgebra::{Matrix3, SVector, Vector3};
-use tension_core::{
-    Error, Method, Motion, Platform, Robot, RobotKind, TensionLimits, TensionSolver,
-};
+use tension_core::{Error, Method, Motion, Platform, Robot, RobotKind, TensionLimits, TensionSolver};
 
 /// 7th-degree time law with zero velocity, acceleration and jerk at both
 /// ends (as Di Paola et al. 2024, Eq. 17): `s(u)`, `s'(u)`, `s''(u)`.
@@ -74,29 +72,16 @@ fn run<const N: usize, const M: usize>(
     dynamic: bool,
 ) -> Report {
     let limits = robot.limits();
-    let range = (0..M)
-        .map(|i| limits.max()[i] - limits.min()[i])
-        .fold(f64::INFINITY, f64::min);
+    let range = (0..M).map(|i| limits.max()[i] - limits.min()[i]).fold(f64::INFINITY, f64::min);
     let mut solver = TensionSolver::<f64, M>::new(method);
     let mut previous: Option<(SVector<f64, M>, f64, SVector<f64, N>)> = None;
-    let mut report = Report {
-        solved: 0,
-        infeasible: 0,
-        max_interior_step: 0.0,
-        warm_held: 0,
-    };
+    let mut report = Report { solved: 0, infeasible: 0, max_interior_step: 0.0, warm_held: 0 };
     for (k, sample) in samples.iter().enumerate() {
         let w = robot.wrench_matrix(&sample.pose).unwrap();
-        let motion = Motion::from_pose_derivatives(
-            robot.kind(),
-            &sample.pose,
-            &sample.velocity,
-            &sample.acceleration,
-        )
-        .unwrap();
-        let f = robot
-            .required_wrench(&sample.pose, &SVector::zeros(), dynamic.then_some(&motion))
-            .unwrap();
+        let motion =
+            Motion::from_pose_derivatives(robot.kind(), &sample.pose, &sample.velocity, &sample.acceleration)
+                .unwrap();
+        let f = robot.required_wrench(&sample.pose, &SVector::zeros(), dynamic.then_some(&motion)).unwrap();
         match solver.solve(&w, &f, limits) {
             Ok(sol) => {
                 let t = sol.tensions;
@@ -105,27 +90,18 @@ fn run<const N: usize, const M: usize>(
                     "{name} {method:?} sample {k}: W t != f"
                 );
                 for i in 0..M {
-                    assert!(
-                        t[i] >= limits.min()[i] - 1e-9 * range
-                            && t[i] <= limits.max()[i] + 1e-9 * range
-                    );
+                    assert!(t[i] >= limits.min()[i] - 1e-9 * range && t[i] <= limits.max()[i] + 1e-9 * range);
                 }
                 if sol.diagnostics.warm_start == tension_core::WarmStart::Held {
                     report.warm_held += 1;
                 }
                 if let Some((tp, rp, pose_p)) = previous {
                     let pose_step = (sample.pose - pose_p).amax();
-                    assert!(
-                        pose_step <= 1.0e-3 + 1e-12,
-                        "trajectory step too large: {pose_step}"
-                    );
+                    assert!(pose_step <= 1.0e-3 + 1e-12, "trajectory step too large: {pose_step}");
                     if rp >= 0.01 * range && sol.robustness >= 0.01 * range {
                         let step = (t - tp).amax();
                         report.max_interior_step = report.max_interior_step.max(step / range);
-                        assert!(
-                            step <= 0.01 * range,
-                            "{name} {method:?} sample {k}: step {step} N"
-                        );
+                        assert!(step <= 0.01 * range, "{name} {method:?} sample {k}: step {step} N");
                     }
                 }
                 previous = Some((t, sol.robustness, sample.pose));
@@ -168,15 +144,8 @@ fn check_robot<const N: usize, const M: usize>(
     for method in methods {
         for dynamic in [false, true] {
             let report = run(name, robot, &samples, method, dynamic);
-            assert!(
-                report.solved > samples.len() / 4,
-                "{name} {method:?}: only {} solved",
-                report.solved
-            );
-            assert!(
-                report.infeasible > 0,
-                "{name}: the trajectory must leave the workspace"
-            );
+            assert!(report.solved > samples.len() / 4, "{name} {method:?}: only {} solved", report.solved);
+            assert!(report.infeasible > 0, "{name}: the trajectory must leave the workspace");
             if method == Method::Barycenter {
                 // Warm start held on nearly every feasible sample after the first.
                 assert!(
@@ -188,7 +157,10 @@ fn check_robot<const N: usize, const M: usize>(
             }
             eprintln!(
                 "{name} {} dynamic={dynamic}: solved {}, infeasible {}, largest interior step {:.5} of range",
-                method.name(), report.solved, report.infeasible, report.max_interior_step
+                method.name(),
+                report.solved,
+                report.infeasible,
+                report.max_interior_step
             );
         }
     }
@@ -238,11 +210,7 @@ fn cogiro_crossing_the_border() {
 fn planar_point_mass_crossing_the_border() {
     let robot: Robot<f64, 2, 4> = shared_robot("planar-point-4");
     let p = |x: f64, y: f64| SVector::<f64, 2>::new(x, y);
-    check_robot(
-        "planar-point-4",
-        &robot,
-        &[p(1.5, 1.5), p(1.5, 2.97), p(2.2, 1.0), p(1.5, 1.5)],
-    );
+    check_robot("planar-point-4", &robot, &[p(1.5, 1.5), p(1.5, 2.97), p(2.2, 1.0), p(1.5, 1.5)]);
 }
 
 /// A planar robot with orientation and five cables (3 DOF, r = 2).
@@ -285,12 +253,7 @@ fn planar3_five_cables_crossing_the_border() {
     check_robot(
         "planar3-5",
         &robot,
-        &[
-            p(1.5, 1.2, 0.0),
-            p(1.5, 0.05, 0.1),
-            p(2.0, 1.5, -0.2),
-            p(1.5, 1.2, 0.0),
-        ],
+        &[p(1.5, 1.2, 0.0), p(1.5, 0.05, 0.1), p(2.0, 1.5, -0.2), p(1.5, 1.2, 0.0)],
     );
 }
 
@@ -313,15 +276,10 @@ fn f32_agrees_with_f64() {
     for sample in &samples {
         let q32 = sample.pose.map(|x| x as f32);
         let w64 = r64.wrench_matrix(&sample.pose).unwrap();
-        let f64_ = r64
-            .required_wrench(&sample.pose, &SVector::zeros(), None)
-            .unwrap();
+        let f64_ = r64.required_wrench(&sample.pose, &SVector::zeros(), None).unwrap();
         let w32 = r32.wrench_matrix(&q32).unwrap();
         let f32_ = r32.required_wrench(&q32, &SVector::zeros(), None).unwrap();
-        match (
-            s64.solve(&w64, &f64_, r64.limits()),
-            s32.solve(&w32, &f32_, r32.limits()),
-        ) {
+        match (s64.solve(&w64, &f64_, r64.limits()), s32.solve(&w32, &f32_, r32.limits())) {
             (Ok(a), Ok(b)) if a.robustness >= 0.01 * range => {
                 let diff = (a.tensions - b.tensions.map(|x| x as f64)).amax() / range;
                 worst = worst.max(diff);

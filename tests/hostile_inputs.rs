@@ -6,8 +6,8 @@ use cdpr_integration_tests::shared_robot;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
 use proptest::prelude::*;
 use tension_core::{
-    analytic_centre, barycenter, polygon::FeasiblePolygon, Error, Method, Platform, Real, Robot,
-    RobotKind, TensionLimits, TensionSolver,
+    analytic_centre, barycenter, polygon::FeasiblePolygon, Error, Method, Platform, Real, Robot, RobotKind,
+    TensionLimits, TensionSolver,
 };
 
 /// Any bit pattern, special values, or a plausible number.
@@ -36,15 +36,7 @@ fn hostile_f64() -> impl Strategy<Value = f64> {
 fn hostile_f32() -> impl Strategy<Value = f32> {
     prop_oneof![
         any::<u32>().prop_map(f32::from_bits),
-        prop::sample::select(vec![
-            f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            0.0,
-            f32::MAX,
-            1e30,
-            1e-38
-        ]),
+        prop::sample::select(vec![f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, f32::MAX, 1e30, 1e-38]),
         -5.0f32..5.0,
         -5.0f32..5.0,
     ]
@@ -52,10 +44,7 @@ fn hostile_f32() -> impl Strategy<Value = f32> {
 
 /// Every method on a robot built from the given numbers: a typed error or a
 /// tension vector that balances the wrench within the limits.
-fn exercise<T: Real + std::fmt::Debug, const N: usize, const M: usize>(
-    kind: RobotKind,
-    numbers: &[T],
-) {
+fn exercise<T: Real + std::fmt::Debug, const N: usize, const M: usize>(kind: RobotKind, numbers: &[T]) {
     let v = |k: usize| Vector3::new(numbers[k], numbers[k + 1], numbers[k + 2]);
     let anchors: [Vector3<T>; M] = core::array::from_fn(|i| v(3 * i));
     let attach: [Vector3<T>; M] = core::array::from_fn(|i| v(3 * M + 3 * i));
@@ -93,16 +82,10 @@ fn exercise<T: Real + std::fmt::Debug, const N: usize, const M: usize>(
                 let slack = T::lit(1e-3) * scale;
                 for i in 0..M {
                     assert!(t[i].is_finite());
-                    assert!(
-                        t[i] >= lo - slack && t[i] <= hi + slack,
-                        "{method:?}: {t:?}"
-                    );
+                    assert!(t[i] >= lo - slack && t[i] <= hi + slack, "{method:?}: {t:?}");
                 }
                 let r = (w * t - f).amax();
-                assert!(
-                    r <= T::lit(1e-2) * (T::one() + f.amax() + scale),
-                    "{method:?}: residual {r:?}"
-                );
+                assert!(r <= T::lit(1e-2) * (T::one() + f.amax() + scale), "{method:?}: residual {r:?}");
             }
         }
     }
@@ -158,10 +141,7 @@ proptest! {
 }
 
 fn suspended() -> (Robot<f64, 6, 8>, SVector<f64, 6>) {
-    (
-        shared_robot("suspended-8"),
-        SVector::<f64, 6>::new(0.0, 0.0, 1.5, 0.0, 0.0, 0.0),
-    )
+    (shared_robot("suspended-8"), SVector::<f64, 6>::new(0.0, 0.0, 1.5, 0.0, 0.0, 0.0))
 }
 
 #[test]
@@ -172,40 +152,25 @@ fn nan_and_infinite_poses_are_nonfinite() {
             let mut p = pose;
             p[k] = bad;
             assert_eq!(robot.wrench_matrix(&p).unwrap_err(), Error::NonFinite);
-            assert_eq!(
-                robot
-                    .required_wrench(&p, &SVector::zeros(), None)
-                    .unwrap_err(),
-                Error::NonFinite
-            );
+            assert_eq!(robot.required_wrench(&p, &SVector::zeros(), None).unwrap_err(), Error::NonFinite);
         }
         let mut extra = SVector::<f64, 6>::zeros();
         extra[2] = bad;
-        assert_eq!(
-            robot.required_wrench(&pose, &extra, None).unwrap_err(),
-            Error::NonFinite
-        );
+        assert_eq!(robot.required_wrench(&pose, &extra, None).unwrap_err(), Error::NonFinite);
     }
     let w = robot.wrench_matrix(&pose).unwrap();
-    let mut f = robot
-        .required_wrench(&pose, &SVector::zeros(), None)
-        .unwrap();
+    let mut f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
     f[0] = f64::NAN;
     for method in Method::ALL {
         assert_eq!(
-            TensionSolver::<f64, 8>::new(method)
-                .solve(&w, &f, robot.limits())
-                .unwrap_err(),
+            TensionSolver::<f64, 8>::new(method).solve(&w, &f, robot.limits()).unwrap_err(),
             Error::NonFinite,
             "{method:?}"
         );
     }
     let mut w_bad = w;
     w_bad[(3, 4)] = f64::INFINITY;
-    assert_eq!(
-        barycenter(&w_bad, &f.map(|_| 1.0), robot.limits(), None).unwrap_err(),
-        Error::NonFinite
-    );
+    assert_eq!(barycenter(&w_bad, &f.map(|_| 1.0), robot.limits(), None).unwrap_err(), Error::NonFinite);
 }
 
 #[test]
@@ -215,10 +180,7 @@ fn zero_length_cable_is_degenerate() {
     let a = robot.anchors()[0];
     let b = robot.attachments()[0];
     let pose = SVector::<f64, 6>::new(a.x - b.x, a.y - b.y, a.z - b.z, 0.0, 0.0, 0.0);
-    assert_eq!(
-        robot.wrench_matrix(&pose).unwrap_err(),
-        Error::DegenerateCable
-    );
+    assert_eq!(robot.wrench_matrix(&pose).unwrap_err(), Error::DegenerateCable);
 }
 
 #[test]
@@ -241,14 +203,10 @@ fn coincident_anchors_are_singular() {
     .unwrap();
     let pose = SVector::<f64, 6>::new(0.0, 0.0, 1.0, 0.0, 0.0, 0.0);
     let w = robot.wrench_matrix(&pose).unwrap();
-    let f = robot
-        .required_wrench(&pose, &SVector::zeros(), None)
-        .unwrap();
+    let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
     for method in Method::ALL {
         assert_eq!(
-            TensionSolver::<f64, 8>::new(method)
-                .solve(&w, &f, &limits)
-                .unwrap_err(),
+            TensionSolver::<f64, 8>::new(method).solve(&w, &f, &limits).unwrap_err(),
             Error::Singular,
             "{method:?}"
         );
@@ -262,19 +220,12 @@ fn huge_coordinates_give_errors_or_valid_answers() {
         let pose = SVector::<f64, 6>::new(0.0, 0.0, z, 0.0, 0.0, 0.0);
         match robot.wrench_matrix(&pose) {
             Ok(w) => {
-                let f = robot
-                    .required_wrench(&pose, &SVector::zeros(), None)
-                    .unwrap();
+                let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
                 for method in Method::ALL {
-                    assert!(TensionSolver::<f64, 8>::new(method)
-                        .solve(&w, &f, robot.limits())
-                        .is_err());
+                    assert!(TensionSolver::<f64, 8>::new(method).solve(&w, &f, robot.limits()).is_err());
                 }
             }
-            Err(e) => assert!(
-                matches!(e, Error::NonFinite | Error::DegenerateCable),
-                "{e:?}"
-            ),
+            Err(e) => assert!(matches!(e, Error::NonFinite | Error::DegenerateCable), "{e:?}"),
         }
     }
     let r32: Robot<f32, 6, 8> = shared_robot("suspended-8");
@@ -284,26 +235,11 @@ fn huge_coordinates_give_errors_or_valid_answers() {
 
 #[test]
 fn invalid_limits_are_rejected() {
-    assert_eq!(
-        TensionLimits::<f64, 8>::uniform(10.0, 10.0).unwrap_err(),
-        Error::InvalidLimits
-    );
-    assert_eq!(
-        TensionLimits::<f64, 8>::uniform(10.0, 5.0).unwrap_err(),
-        Error::InvalidLimits
-    );
-    assert_eq!(
-        TensionLimits::<f64, 8>::uniform(-1.0, 5.0).unwrap_err(),
-        Error::InvalidLimits
-    );
-    assert_eq!(
-        TensionLimits::<f64, 8>::uniform(f64::NAN, 5.0).unwrap_err(),
-        Error::NonFinite
-    );
-    assert_eq!(
-        TensionLimits::<f32, 8>::uniform(1.0, f32::INFINITY).unwrap_err(),
-        Error::NonFinite
-    );
+    assert_eq!(TensionLimits::<f64, 8>::uniform(10.0, 10.0).unwrap_err(), Error::InvalidLimits);
+    assert_eq!(TensionLimits::<f64, 8>::uniform(10.0, 5.0).unwrap_err(), Error::InvalidLimits);
+    assert_eq!(TensionLimits::<f64, 8>::uniform(-1.0, 5.0).unwrap_err(), Error::InvalidLimits);
+    assert_eq!(TensionLimits::<f64, 8>::uniform(f64::NAN, 5.0).unwrap_err(), Error::NonFinite);
+    assert_eq!(TensionLimits::<f32, 8>::uniform(1.0, f32::INFINITY).unwrap_err(), Error::NonFinite);
 }
 
 #[test]
@@ -311,21 +247,13 @@ fn wrong_shapes_are_unsupported() {
     let w = SMatrix::<f64, 6, 9>::from_fn(|i, j| (((i * 9 + j) * (i * 9 + j)) as f64).sin());
     let f = SVector::<f64, 6>::repeat(1.0);
     let limits = TensionLimits::uniform(1.0, 10.0).unwrap();
-    assert_eq!(
-        barycenter(&w, &f, &limits, None).unwrap_err(),
-        Error::UnsupportedShape
-    );
+    assert_eq!(barycenter(&w, &f, &limits, None).unwrap_err(), Error::UnsupportedShape);
     assert!(!Method::Barycenter.supports(6, 9));
     assert!(Method::AnalyticCentre.supports(6, 9));
     let wide = SMatrix::<f64, 3, 2>::zeros();
     assert_eq!(
-        analytic_centre(
-            &wide,
-            &SVector::<f64, 3>::zeros(),
-            &TensionLimits::uniform(1.0, 2.0).unwrap(),
-            None
-        )
-        .unwrap_err(),
+        analytic_centre(&wide, &SVector::<f64, 3>::zeros(), &TensionLimits::uniform(1.0, 2.0).unwrap(), None)
+            .unwrap_err(),
         Error::UnsupportedShape
     );
 }

@@ -25,18 +25,14 @@ fn wrench_matrix_is_minus_the_length_jacobian_transposed() {
             let mut twist = SVector::<f64, 6>::zeros();
             twist[k] = h;
             let dp = Vector3::new(twist[0], twist[1], twist[2]);
-            let dr = Rotation3::from_scaled_axis(Vector3::new(twist[3], twist[4], twist[5]))
-                .into_inner();
+            let dr = Rotation3::from_scaled_axis(Vector3::new(twist[3], twist[4], twist[5])).into_inner();
             let plus = lengths(&robot, p + dp, dr * r);
-            let dr_minus = Rotation3::from_scaled_axis(-Vector3::new(twist[3], twist[4], twist[5]))
-                .into_inner();
+            let dr_minus =
+                Rotation3::from_scaled_axis(-Vector3::new(twist[3], twist[4], twist[5])).into_inner();
             let minus = lengths(&robot, p - dp, dr_minus * r);
             let dl = (plus - minus) / (2.0 * h);
             let predicted = -(w.transpose() * (twist / h));
-            assert!(
-                (dl - predicted).amax() < 1e-7,
-                "{name} direction {k}: {dl:?} vs {predicted:?}"
-            );
+            assert!((dl - predicted).amax() < 1e-7, "{name} direction {k}: {dl:?} vs {predicted:?}");
         }
     }
 }
@@ -46,24 +42,14 @@ fn euler_convention_is_xyz_intrinsic() {
     let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
     let q = std::f64::consts::FRAC_PI_2;
     // Rx(pi/2): y -> z.
-    let (_, r) = robot
-        .frame(&SVector::<f64, 6>::new(0.0, 0.0, 0.0, q, 0.0, 0.0))
-        .unwrap();
+    let (_, r) = robot.frame(&SVector::<f64, 6>::new(0.0, 0.0, 0.0, q, 0.0, 0.0)).unwrap();
     assert!((r * Vector3::y() - Vector3::z()).amax() < 1e-15);
     // Rx(pi/2) Ry(pi/2): x -> (Rx)(-z) = y; the z-axis first goes to x then stays.
-    let (_, r) = robot
-        .frame(&SVector::<f64, 6>::new(0.0, 0.0, 0.0, q, q, 0.0))
-        .unwrap();
-    assert!(
-        (r * Vector3::x() - Vector3::y()).amax() < 1e-15,
-        "{}",
-        r * Vector3::x()
-    );
+    let (_, r) = robot.frame(&SVector::<f64, 6>::new(0.0, 0.0, 0.0, q, q, 0.0)).unwrap();
+    assert!((r * Vector3::x() - Vector3::y()).amax() < 1e-15, "{}", r * Vector3::x());
     assert!((r * Vector3::z() - Vector3::x()).amax() < 1e-15);
     // Rz alone: x -> y.
-    let (p, r) = robot
-        .frame(&SVector::<f64, 6>::new(1.0, 2.0, 3.0, 0.0, 0.0, q))
-        .unwrap();
+    let (p, r) = robot.frame(&SVector::<f64, 6>::new(1.0, 2.0, 3.0, 0.0, 0.0, q)).unwrap();
     assert!((r * Vector3::x() - Vector3::y()).amax() < 1e-15);
     assert_eq!(p, Vector3::new(1.0, 2.0, 3.0));
 }
@@ -101,9 +87,7 @@ fn gravity_wrench_at_an_offset_centre_of_mass() {
     let robot: Robot<f64, 6, 8> = shared_robot("suspended-8");
     // m = 6.34, c = (0, 0, -0.1); with rx = pi/2 the centre of mass is at R c = (0, 0.1, 0).
     let pose = SVector::<f64, 6>::new(0.0, 0.0, 1.0, std::f64::consts::FRAC_PI_2, 0.0, 0.0);
-    let f = robot
-        .required_wrench(&pose, &SVector::zeros(), None)
-        .unwrap();
+    let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
     let mg = 6.34 * 9.81;
     // w_e = (0, 0, -mg, (R c) x (0, 0, -mg)) = (0, 0, -mg, -0.1 mg, 0, 0); f = -w_e.
     let expected = SVector::<f64, 6>::new(0.0, 0.0, mg, 0.1 * mg, 0.0, 0.0);
@@ -123,9 +107,7 @@ fn dalembert_wrench() {
         angular_velocity: Vector3::new(0.0, 0.0, 3.0),
         angular_acceleration: Vector3::new(0.5, 0.0, 0.0),
     };
-    let f = robot
-        .required_wrench(&pose, &SVector::zeros(), Some(&motion))
-        .unwrap();
+    let f = robot.required_wrench(&pose, &SVector::zeros(), Some(&motion)).unwrap();
     let m = 6.34;
     // R = I, R c = (0, 0, -0.1). a_c = a + alpha x Rc + omega x (omega x Rc):
     // alpha x Rc = (0.5,0,0) x (0,0,-0.1) = (0, 0.05, 0); omega x Rc = (0,0,3) x (0,0,-0.1) = 0.
@@ -162,18 +144,12 @@ fn planar_wrench_matrices() {
         Vector3::new(0.0, 0.1, 0.0),
     ];
     let planar3 =
-        Robot::<f64, 3, 5>::new(RobotKind::Planar3, anchors, attach, limits, platform, None)
-            .unwrap();
+        Robot::<f64, 3, 5>::new(RobotKind::Planar3, anchors, attach, limits, platform, None).unwrap();
     let theta = 0.3;
-    let w = planar3
-        .wrench_matrix(&SVector::<f64, 3>::new(2.0, 1.5, theta))
-        .unwrap();
+    let w = planar3.wrench_matrix(&SVector::<f64, 3>::new(2.0, 1.5, theta)).unwrap();
     for i in 0..5 {
         let (s, c) = theta.sin_cos();
-        let rb = [
-            c * attach[i].x - s * attach[i].y,
-            s * attach[i].x + c * attach[i].y,
-        ];
+        let rb = [c * attach[i].x - s * attach[i].y, s * attach[i].x + c * attach[i].y];
         let l = [anchors[i].x - 2.0 - rb[0], anchors[i].y - 1.5 - rb[1]]; // z ignored
         let n = (l[0] * l[0] + l[1] * l[1]).sqrt();
         let u = [l[0] / n, l[1] / n];
@@ -181,9 +157,7 @@ fn planar_wrench_matrices() {
         assert!((w[(2, i)] - (rb[0] * u[1] - rb[1] * u[0])).abs() < 1e-15);
     }
     let point: Robot<f64, 2, 4> = shared_robot("planar-point-4");
-    let w = point
-        .wrench_matrix(&SVector::<f64, 2>::new(1.0, 1.0))
-        .unwrap();
+    let w = point.wrench_matrix(&SVector::<f64, 2>::new(1.0, 1.0)).unwrap();
     let h = 1.0 / 2f64.sqrt();
     let expected = SMatrix::<f64, 2, 4>::new(
         -h,
@@ -197,10 +171,7 @@ fn planar_wrench_matrices() {
     );
     assert!((w - expected).amax() < 1e-15, "{w}");
     // Kind and size must agree.
-    assert!(
-        Robot::<f64, 2, 5>::new(RobotKind::Planar3, anchors, attach, limits, platform, None)
-            .is_err()
-    );
+    assert!(Robot::<f64, 2, 5>::new(RobotKind::Planar3, anchors, attach, limits, platform, None).is_err());
 }
 
 #[test]

@@ -21,12 +21,7 @@ pub enum RobotFileError {
     /// The numbers do not make a valid robot (see the inner error).
     Invalid(String, tension_core::Error),
     /// The robot's kind or cable count does not match the requested size.
-    Shape {
-        kind: RobotKind,
-        cables: usize,
-        dof: usize,
-        wanted_cables: usize,
-    },
+    Shape { kind: RobotKind, cables: usize, dof: usize, wanted_cables: usize },
 }
 
 impl std::fmt::Display for RobotFileError {
@@ -35,12 +30,7 @@ impl std::fmt::Display for RobotFileError {
             RobotFileError::Io(path, e) => write!(f, "{path}: {e}"),
             RobotFileError::Format(msg) => f.write_str(msg),
             RobotFileError::Invalid(what, e) => write!(f, "{what}: {e}"),
-            RobotFileError::Shape {
-                kind,
-                cables,
-                dof,
-                wanted_cables,
-            } => write!(
+            RobotFileError::Shape { kind, cables, dof, wanted_cables } => write!(
                 f,
                 "robot is {} with {cables} cables, expected {dof} DOF with {wanted_cables} cables",
                 kind.name()
@@ -139,20 +129,17 @@ impl RobotFile {
     /// Reads and parses a file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, RobotFileError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| RobotFileError::Io(path.display().to_string(), e))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| RobotFileError::Io(path.display().to_string(), e))?;
         Self::parse(&text).map_err(|e| match e {
-            RobotFileError::Format(msg) => {
-                RobotFileError::Format(format!("{}: {msg}", path.display()))
-            }
+            RobotFileError::Format(msg) => RobotFileError::Format(format!("{}: {msg}", path.display())),
             other => other,
         })
     }
 
     /// Parses the TOML text of a robot file.
     pub fn parse(text: &str) -> Result<Self, RobotFileError> {
-        let raw: RobotToml =
-            toml::from_str(text).map_err(|e| RobotFileError::Format(e.to_string()))?;
+        let raw: RobotToml = toml::from_str(text).map_err(|e| RobotFileError::Format(e.to_string()))?;
         let kind = RobotKind::from_name(&raw.kind)
             .ok_or_else(|| RobotFileError::Format(format!("unknown kind `{}`", raw.kind)))?;
         if raw.cable.is_empty() {
@@ -165,9 +152,7 @@ impl RobotFile {
             com: raw.platform.com.unwrap_or([0.0; 3]),
             gravity: raw.platform.gravity,
             inertia: raw.platform.inertia.unwrap_or([[0.0; 3]; 3]),
-            winch: raw
-                .winch
-                .map(|w| [w.drum_radius, w.gear_ratio, w.efficiency, w.torque_max]),
+            winch: raw.winch.map(|w| [w.drum_radius, w.gear_ratio, w.efficiency, w.torque_max]),
             cables: raw
                 .cable
                 .iter()
@@ -262,14 +247,8 @@ attach = [0.0, 0.0, 0.0]
         assert_eq!(file.com, [0.0; 3]);
         let robot = file.to_robot::<f64, 2, 3>().unwrap();
         assert_eq!(robot.limits().min()[0], 2.0);
-        assert!(matches!(
-            file.to_robot::<f64, 2, 4>(),
-            Err(RobotFileError::Shape { .. })
-        ));
-        assert!(matches!(
-            file.to_robot::<f64, 3, 3>(),
-            Err(RobotFileError::Shape { .. })
-        ));
+        assert!(matches!(file.to_robot::<f64, 2, 4>(), Err(RobotFileError::Shape { .. })));
+        assert!(matches!(file.to_robot::<f64, 3, 3>(), Err(RobotFileError::Shape { .. })));
     }
 
     #[test]

@@ -65,10 +65,7 @@ pub struct BarrierWeights<T: Real, const M: usize> {
 impl<T: Real, const M: usize> BarrierWeights<T, M> {
     /// Every weight 1: the plain analytic centre (their Eq. 12).
     pub fn uniform() -> Self {
-        Self {
-            lower: SVector::repeat(T::one()),
-            upper: SVector::repeat(T::one()),
-        }
+        Self { lower: SVector::repeat(T::one()), upper: SVector::repeat(T::one()) }
     }
 
     /// Weights for the lower and upper bounds; each must be finite and `> 0`.
@@ -102,10 +99,7 @@ pub struct AnalyticCentreSettings<T: Real> {
 
 impl<T: Real> Default for AnalyticCentreSettings<T> {
     fn default() -> Self {
-        Self {
-            tolerance: T::lit(1.0e-10).max(T::lit(1000.0) * T::eps()),
-            max_iterations: 50,
-        }
+        Self { tolerance: T::lit(1.0e-10).max(T::lit(1000.0) * T::eps()), max_iterations: 50 }
     }
 }
 
@@ -190,10 +184,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
         }
         candidates[2] = Some(project(&middle));
         candidates[3] = Some(middle);
-        for (slot, theta) in candidates[4..]
-            .iter_mut()
-            .zip([0.25, 0.1, 1.0 / 30.0, 0.01])
-        {
+        for (slot, theta) in candidates[4..].iter_mut().zip([0.25, 0.1, 1.0 / 30.0, 0.01]) {
             *slot = Some(limits.min() + (limits.max() - limits.min()) * T::lit(theta));
         }
         let (chosen, mut t) = candidates
@@ -235,11 +226,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                 return Ok(Solution {
                     tensions: t_final,
                     robustness: robustness(&t_final, limits),
-                    diagnostics: Diagnostics {
-                        iterations: iteration,
-                        warm_start,
-                        ..Diagnostics::empty()
-                    },
+                    diagnostics: Diagnostics { iterations: iteration, warm_start, ..Diagnostics::empty() },
                 });
             }
             if iteration == self.settings.max_iterations {
@@ -311,11 +298,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                     s_max = s_max.min((limits.min()[i] - t[i]) / step[i]);
                 }
             }
-            let mut s = if s_max > T::one() {
-                T::one()
-            } else {
-                T::lit(0.99) * s_max
-            };
+            let mut s = if s_max > T::one() { T::one() } else { T::lit(0.99) * s_max };
             let slope = grad.dot(&step);
             let phi0 = self.barrier(&t, limits);
             let small_decrement = -slope < T::lit(1.0e-3);
@@ -414,9 +397,8 @@ fn certify_infeasible<T: Real, const N: usize, const M: usize>(
     limits: &TensionLimits<T, M>,
     t0: &SVector<T, M>,
 ) -> bool {
-    let clamp = |t: SVector<T, M>| {
-        SVector::<T, M>::from_fn(|i, _| t[i].max(limits.min()[i]).min(limits.max()[i]))
-    };
+    let clamp =
+        |t: SVector<T, M>| SVector::<T, M>::from_fn(|i, _| t[i].max(limits.min()[i]).min(limits.max()[i]));
     let lipschitz = w.norm_squared();
     if !greater(lipschitz, T::zero()) {
         return false;
@@ -431,11 +413,7 @@ fn certify_infeasible<T: Real, const N: usize, const M: usize>(
         let mut magnitude = y.dot(f).abs();
         for i in 0..M {
             let p = y.dot(&w.column(i));
-            support += if p > T::zero() {
-                p * limits.max()[i]
-            } else {
-                p * limits.min()[i]
-            };
+            support += if p > T::zero() { p * limits.max()[i] } else { p * limits.min()[i] };
             magnitude += p.abs() * limits.max()[i];
         }
         if support < y.dot(f) - T::lit(1.0e3) * T::eps() * magnitude {

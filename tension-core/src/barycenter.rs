@@ -50,11 +50,7 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
         let lower = core::array::from_fn(|k| limits.min()[k] - particular[k]);
         let upper = core::array::from_fn(|k| limits.max()[k] - particular[k]);
         let polygon = FeasiblePolygon::new(rows, lower, upper)?;
-        Ok(Self {
-            particular,
-            rows,
-            polygon,
-        })
+        Ok(Self { particular, rows, polygon })
     }
 
     /// Tensions at null-space coordinates `lambda`.

@@ -42,10 +42,7 @@ pub fn closed_form_factored<T: Real, const N: usize, const M: usize>(
         None => Ok(Solution {
             tensions: t,
             robustness: robustness(&t, limits),
-            diagnostics: Diagnostics {
-                iterations: 1,
-                ..Diagnostics::empty()
-            },
+            diagnostics: Diagnostics { iterations: 1, ..Diagnostics::empty() },
         }),
         Some(_) if misses_box(&t, limits, &all) => Err(Error::Infeasible),
         Some(_) => Err(Error::MethodFailed),

@@ -109,12 +109,7 @@ impl<T: Real> Winch<T> {
         {
             return Err(Error::InvalidLimits);
         }
-        Ok(Self {
-            drum_radius,
-            gear_ratio,
-            efficiency,
-            torque_max,
-        })
+        Ok(Self { drum_radius, gear_ratio, efficiency, torque_max })
     }
 
     /// SPEC: `tau = t * drum_radius / (gear_ratio * efficiency)`, never beyond
@@ -125,10 +120,7 @@ impl<T: Real> Winch<T> {
         }
         let raw = tension * self.drum_radius / (self.gear_ratio * self.efficiency);
         let torque = raw.max(-self.torque_max).min(self.torque_max);
-        Ok(MotorTorque {
-            torque,
-            saturated: torque != raw,
-        })
+        Ok(MotorTorque { torque, saturated: torque != raw })
     }
 }
 
@@ -167,12 +159,7 @@ impl<T: Real> Motion<T> {
         if N != kind.dof() {
             return Err(Error::UnsupportedShape);
         }
-        if !all_finite(
-            pose.iter()
-                .chain(velocity.iter())
-                .chain(acceleration.iter())
-                .copied(),
-        ) {
+        if !all_finite(pose.iter().chain(velocity.iter()).chain(acceleration.iter()).copied()) {
             return Err(Error::NonFinite);
         }
         let z = T::zero();
@@ -185,17 +172,9 @@ impl<T: Real> Motion<T> {
                 let j2 = Vector3::new(z, ca, sa);
                 let j3 = Vector3::new(sb, -sa * cb, ca * cb);
                 let dj2 = Vector3::new(z, -sa, ca) * da;
-                let dj3 = Vector3::new(
-                    db * cb,
-                    -da * ca * cb + db * sa * sb,
-                    -da * sa * cb - db * ca * sb,
-                );
+                let dj3 = Vector3::new(db * cb, -da * ca * cb + db * sa * sb, -da * sa * cb - db * ca * sb);
                 Self {
-                    linear_acceleration: Vector3::new(
-                        acceleration[0],
-                        acceleration[1],
-                        acceleration[2],
-                    ),
+                    linear_acceleration: Vector3::new(acceleration[0], acceleration[1], acceleration[2]),
                     angular_velocity: j1 * da + j2 * db + j3 * dc,
                     angular_acceleration: j1 * acceleration[3]
                         + j2 * acceleration[4]
@@ -269,14 +248,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         if platform.mass < T::zero() {
             return Err(Error::InvalidLimits);
         }
-        Ok(Self {
-            kind,
-            anchors,
-            attachments,
-            limits,
-            platform,
-            winch,
-        })
+        Ok(Self { kind, anchors, attachments, limits, platform, winch })
     }
 
     /// The kind.
@@ -296,14 +268,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
 
     /// Sets the platform mass properties (payload changes).
     pub fn set_platform(&mut self, platform: Platform<T>) -> Result<(), Error> {
-        let copy = Self::new(
-            self.kind,
-            self.anchors,
-            self.attachments,
-            self.limits,
-            platform,
-            self.winch,
-        )?;
+        let copy = Self::new(self.kind, self.anchors, self.attachments, self.limits, platform, self.winch)?;
         *self = copy;
         Ok(())
     }
@@ -456,13 +421,11 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
             }
             let omega = motion.angular_velocity;
             let alpha = motion.angular_acceleration;
-            let a_c =
-                motion.linear_acceleration + alpha.cross(&rc) + omega.cross(&omega.cross(&rc));
+            let a_c = motion.linear_acceleration + alpha.cross(&rc) + omega.cross(&omega.cross(&rc));
             let inertial_force = -a_c * pf.mass;
             let inertia_w = rot * pf.inertia * rot.transpose();
             force += inertial_force;
-            moment +=
-                rc.cross(&inertial_force) - (inertia_w * alpha + omega.cross(&(inertia_w * omega)));
+            moment += rc.cross(&inertial_force) - (inertia_w * alpha + omega.cross(&(inertia_w * omega)));
         }
         let mut w: SVector<T, N> = SVector::zeros();
         match self.kind {

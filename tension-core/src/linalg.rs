@@ -18,10 +18,21 @@ use crate::{
 };
 
 /// `W^T = Q [R; 0]`, computed once per pose and shared by every method.
+///
+/// `Q = H_1 ... H_N` is kept as its Householder reflections
+/// `H_k = I - beta_k v_k v_k^T`, never formed: the null-space basis (the last
+/// `M - N` columns of `Q`) and the minimum-norm solutions are obtained by
+/// applying the reflections to vectors, about a quarter of the work of
+/// accumulating `Q`.
 #[derive(Debug, Clone)]
 pub struct WrenchFactorization<T: Real, const N: usize, const M: usize> {
-    q: SMatrix<T, M, M>,
+    /// Householder vectors; column `k` is zero above row `k`.
+    v: SMatrix<T, M, N>,
+    /// `2 / |v_k|^2`, zero for a skipped (already zero) column.
+    beta: SVector<T, N>,
     r: SMatrix<T, N, N>,
+    /// Null-space basis in columns `0..M - N`.
+    z: SMatrix<T, M, M>,
 }
 
 impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
@@ -50,8 +61,8 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
                 a.row_mut(i).fill(T::zero());
             }
         }
-        let mut q: SMatrix<T, M, M> = SMatrix::identity();
-        let mut v: SVector<T, M> = SVector::zeros();
+        let mut v: SMatrix<T, M, N> = SMatrix::zeros();
+        let mut beta: SVector<T, N> = SVector::zeros();
         for k in 0..N {
             // Householder vector for a[k.., k].
             let mut norm2 = T::zero();
@@ -63,36 +74,24 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
                 continue; // rank deficiency, caught on R's diagonal below
             }
             let alpha = if a[(k, k)] >= T::zero() { -norm } else { norm };
-            v.fill(T::zero());
             for i in k..M {
-                v[i] = a[(i, k)];
+                v[(i, k)] = a[(i, k)];
             }
-            v[k] -= alpha;
-            let vnorm2 = norm2 - a[(k, k)] * a[(k, k)] + v[k] * v[k];
+            v[(k, k)] -= alpha;
+            let vnorm2 = norm2 - a[(k, k)] * a[(k, k)] + v[(k, k)] * v[(k, k)];
             if vnorm2 == T::zero() {
                 continue;
             }
-            let beta = T::lit(2.0) / vnorm2;
+            beta[k] = T::lit(2.0) / vnorm2;
             // a <- H a on rows k.., columns k..
             for j in k..N {
                 let mut s = T::zero();
                 for i in k..M {
-                    s += v[i] * a[(i, j)];
+                    s += v[(i, k)] * a[(i, j)];
                 }
-                s *= beta;
+                s *= beta[k];
                 for i in k..M {
-                    a[(i, j)] -= s * v[i];
-                }
-            }
-            // q <- q H
-            for row in 0..M {
-                let mut s = T::zero();
-                for i in k..M {
-                    s += q[(row, i)] * v[i];
-                }
-                s *= beta;
-                for i in k..M {
-                    q[(row, i)] -= s * v[i];
+                    a[(i, j)] -= s * v[(i, k)];
                 }
             }
         }
@@ -104,44 +103,59 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             }
             rmax = rmax.max(r[(i, i)].abs());
         }
-        if !all_finite(q.iter().chain(r.iter()).copied()) {
+        let mut fact = Self { v, beta, r, z: SMatrix::zeros() };
+        // Null-space basis: Z e_k = H_1 ... H_N e_{N+k}.
+        for k in 0..(M - N) {
+            let mut e: SVector<T, M> = SVector::zeros();
+            e[N + k] = T::one();
+            fact.apply_q(&mut e);
+            fact.z.set_column(k, &e);
+        }
+        if !all_finite(fact.z.iter().chain(fact.r.iter()).copied()) {
             return Err(Error::NonFinite);
         }
         let threshold = T::lit(16.0) * T::lit(M as f64) * T::eps() * rmax;
         for i in 0..N {
-            if r[(i, i)].abs() <= threshold {
+            if fact.r[(i, i)].abs() <= threshold {
                 return Err(Error::Singular);
             }
         }
-        Ok(Self { q, r })
+        Ok(fact)
+    }
+
+    /// `x <- Q x = H_1 (H_2 (... H_N x))`.
+    fn apply_q(&self, x: &mut SVector<T, M>) {
+        for k in (0..N).rev() {
+            let mut s = T::zero();
+            for i in k..M {
+                s += self.v[(i, k)] * x[i];
+            }
+            s *= self.beta[k];
+            for i in k..M {
+                x[i] -= s * self.v[(i, k)];
+            }
+        }
     }
 
     /// Minimum-norm solution of `W t = f` (the pseudo-inverse `W^+ f`).
     pub fn min_norm_solution(&self, f: &SVector<T, N>) -> SVector<T, M> {
-        // Forward substitution R^T y = f.
-        let mut y: SVector<T, N> = SVector::zeros();
+        // Forward substitution R^T y = f, then t = Q [y; 0].
+        let mut t: SVector<T, M> = SVector::zeros();
         for i in 0..N {
             let mut s = f[i];
             for k in 0..i {
-                s -= self.r[(k, i)] * y[k];
+                s -= self.r[(k, i)] * t[k];
             }
-            y[i] = s / self.r[(i, i)];
+            t[i] = s / self.r[(i, i)];
         }
-        let mut t: SVector<T, M> = SVector::zeros();
-        for i in 0..M {
-            let mut s = T::zero();
-            for k in 0..N {
-                s += self.q[(i, k)] * y[k];
-            }
-            t[i] = s;
-        }
+        self.apply_q(&mut t);
         t
     }
 
     /// Entry `(cable, k)` of the orthonormal null-space basis, `k < M - N`.
     #[inline]
     pub fn null(&self, cable: usize, k: usize) -> T {
-        self.q[(cable, N + k)]
+        self.z[(cable, k)]
     }
 
     /// The degree of redundancy `r = M - N`.
@@ -218,15 +232,15 @@ mod tests {
     fn q_is_orthogonal_and_the_null_columns_annihilate_w() {
         let w = sample();
         let fact = WrenchFactorization::new(&w).unwrap();
-        let qtq = fact.q.transpose() * fact.q;
-        assert!((qtq - SMatrix::<f64, 5, 5>::identity()).amax() < 1e-14);
-        for k in 0..fact.redundancy() {
-            let z = SVector::<f64, 5>::from_fn(|i, _| fact.null(i, k));
-            assert!((w * z).amax() < 1e-14);
-        }
-        // W^T = Q_1 R.
-        let q1 = fact.q.fixed_columns::<3>(0);
-        assert!((q1 * fact.r - w.transpose()).amax() < 1e-14);
+        let z = fact.z.fixed_columns::<2>(0);
+        assert!((z.transpose() * z - SMatrix::<f64, 2, 2>::identity()).amax() < 1e-14);
+        assert!((w * z).amax() < 1e-14);
+        // Q is orthogonal: it keeps norms; R^T R = W W^T.
+        let mut x = SVector::<f64, 5>::new(1.0, 2.0, 3.0, 4.0, 5.0);
+        let norm = x.norm();
+        fact.apply_q(&mut x);
+        assert!((x.norm() - norm).abs() < 1e-14);
+        assert!((fact.r.transpose() * fact.r - w * w.transpose()).amax() < 1e-13);
     }
 
     #[test]
@@ -254,16 +268,10 @@ mod tests {
         let mut rank2 = w;
         let r0 = rank2.row(0).into_owned();
         rank2.set_row(2, &(r0 * 2.0));
-        assert_eq!(
-            WrenchFactorization::new(&rank2).unwrap_err(),
-            Error::Singular
-        );
+        assert_eq!(WrenchFactorization::new(&rank2).unwrap_err(), Error::Singular);
         let mut nan = w;
         nan[(1, 1)] = f64::NAN;
-        assert_eq!(
-            WrenchFactorization::new(&nan).unwrap_err(),
-            Error::NonFinite
-        );
+        assert_eq!(WrenchFactorization::new(&nan).unwrap_err(), Error::NonFinite);
     }
 
     #[test]
@@ -277,9 +285,6 @@ mod tests {
         }
         let mut indefinite = SMatrix::<f64, 2, 2>::new(1.0, 2.0, 2.0, 1.0);
         let mut rhs = SVector::<f64, 2>::new(1.0, 1.0);
-        assert_eq!(
-            cholesky_solve_leading(&mut indefinite, &mut rhs, 2).unwrap_err(),
-            Error::Singular
-        );
+        assert_eq!(cholesky_solve_leading(&mut indefinite, &mut rhs, 2).unwrap_err(), Error::Singular);
     }
 }

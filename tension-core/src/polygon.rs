@@ -49,6 +49,10 @@ pub struct Vertex<T: Real> {
     pub point: Vector2<T>,
     /// The two half-plane indices (`2 * cable + side`).
     pub lines: (u8, u8),
+    /// Bound on the position's error from rounding: the slack tolerance
+    /// amplified by the conditioning of the two lines (large when they are
+    /// nearly parallel).
+    pub error: T,
 }
 
 /// Up to `4 M` vertices without allocation (a convex polygon cut from `2 M`
@@ -62,14 +66,8 @@ pub struct VertexList<T: Real, const M: usize> {
 
 impl<T: Real, const M: usize> VertexList<T, M> {
     fn new() -> Self {
-        let empty = Vertex {
-            point: Vector2::zeros(),
-            lines: (0, 0),
-        };
-        Self {
-            slots: [[empty; M]; 4],
-            len: 0,
-        }
+        let empty = Vertex { point: Vector2::zeros(), lines: (0, 0), error: T::zero() };
+        Self { slots: [[empty; M]; 4], len: 0 }
     }
 
     /// Capacity, `4 M`.
@@ -175,14 +173,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 used[k] = false;
             }
         }
-        Ok(Self {
-            rows,
-            norms,
-            lower,
-            upper,
-            used,
-            tol,
-        })
+        Ok(Self { rows, norms, lower, upper, used, tol })
     }
 
     /// The slack tolerance used for "on a line" and "feasible", tension units.
@@ -224,31 +215,34 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         (0..2 * M).all(|h| !self.is_used(h) || self.slack(h, p) >= -self.tol)
     }
 
-    /// Intersection of the lines of half-planes `h1` and `h2`, `None` when
-    /// (nearly) parallel.
-    fn intersect(&self, h1: usize, h2: usize) -> Option<Vector2<T>> {
+    /// Intersection of the lines of half-planes `h1` and `h2` (Cramer's rule
+    /// on their Eq. 6) and a bound on its error, `tol (|a_1| + |a_2|) / |det|`;
+    /// `None` when (nearly) parallel.
+    fn intersect(&self, h1: usize, h2: usize) -> Option<(Vector2<T>, T)> {
         let a1 = self.normal(h1);
         let a2 = self.normal(h2);
+        let (n1, n2) = (self.norms[h1 / 2], self.norms[h2 / 2]);
         let det = a1.x * a2.y - a1.y * a2.x;
-        if det.abs() <= T::lit(16.0) * T::eps() * self.norms[h1 / 2] * self.norms[h2 / 2] {
+        if det.abs() <= T::lit(16.0) * T::eps() * n1 * n2 {
             return None;
         }
         let c1 = self.offset(h1);
         let c2 = self.offset(h2);
         let p = Vector2::new((c1 * a2.y - c2 * a1.y) / det, (a1.x * c2 - a2.x * c1) / det);
-        all_finite([p.x, p.y]).then_some(p)
+        let error = self.tol * (n1 + n2) / det.abs();
+        all_finite([p.x, p.y, error]).then_some((p, error))
     }
 
-    /// The vertex of two lines if it is feasible.
+    /// The vertex of two lines if it satisfies every half-plane within the
+    /// tolerance widened by its own error bound.
     fn vertex_of(&self, h1: usize, h2: usize) -> Option<Vertex<T>> {
         if h1 / 2 == h2 / 2 || !self.is_used(h1) || !self.is_used(h2) {
             return None;
         }
-        let p = self.intersect(h1, h2)?;
-        self.contains(&p).then_some(Vertex {
-            point: p,
-            lines: (h1 as u8, h2 as u8),
-        })
+        let (p, error) = self.intersect(h1, h2)?;
+        let feasible = (0..2 * M)
+            .all(|g| !self.is_used(g) || self.slack(g, &p) >= -(self.tol + self.norms[g / 2] * error));
+        feasible.then_some(Vertex { point: p, lines: (h1 as u8, h2 as u8), error })
     }
 
     /// Cold search for a first vertex over the line pairs, in a fixed order
@@ -298,19 +292,20 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let mut vertices = VertexList::new();
         vertices.push(start).ok()?;
         // Outgoing edge at the first vertex: an active line along which no
-        // other active half-plane is violated (Sect. 2.2.2, Eqs. 10-11).
+        // other active half-plane is violated (Sect. 2.2.2, Eqs. 10-11). The
+        // two lines that define the vertex are active by construction (their
+        // computed slack can exceed the tolerance when they are nearly parallel).
+        let (l0, l1) = (start.lines.0 as usize, start.lines.1 as usize);
+        let active = |h: usize| {
+            self.is_used(h) && (h == l0 || h == l1 || self.slack(h, &start.point).abs() <= self.tol)
+        };
         let mut edge = None;
         for h in 0..2 * M {
-            if !self.is_used(h) || self.slack(h, &start.point).abs() > self.tol {
+            if !active(h) {
                 continue;
             }
             let d = direction(&self.normal(h));
-            let blocked = (0..2 * M).any(|g| {
-                g != h
-                    && self.is_used(g)
-                    && self.slack(g, &start.point).abs() <= self.tol
-                    && self.normal(g).dot(&d) > self.dir_tol(g)
-            });
+            let blocked = (0..2 * M).any(|g| g != h && active(g) && self.normal(g).dot(&d) > self.dir_tol(g));
             if !blocked {
                 edge = Some(h);
                 break;
@@ -368,13 +363,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 return None;
             }
             visited |= 1 << g;
-            let w = self.intersect(h, g).unwrap_or(w_guess);
-            vertices
-                .push(Vertex {
-                    point: w,
-                    lines: (h as u8, g as u8),
-                })
-                .ok()?;
+            let (w, error) = self.intersect(h, g).unwrap_or((w_guess, self.tol));
+            vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
             h = g;
             v = w;
         }
@@ -387,16 +377,16 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         T::lit(16.0) * T::eps() * self.norms[g / 2]
     }
 
-    /// Every pairwise intersection that is feasible, merged within the
-    /// tolerance and sorted by angle about their mean (Mikelsons et al.
+    /// Every pairwise intersection that is feasible, merged with any other
+    /// within their error bounds and sorted by angle about their mean (Mikelsons et al.
     /// 2008): `C(2M, 2)` solves of `O(M)` checks, `O(M^3)`.
     pub fn brute_force(&self) -> Result<PolygonCentroid<T, M>, Error> {
         let mut vertices: VertexList<T, M> = VertexList::new();
-        let merge = T::lit(4.0) * self.tol;
         for h1 in 0..2 * M {
             for h2 in (h1 + 1)..2 * M {
                 if let Some(v) = self.vertex_of(h1, h2) {
-                    if !vertices.iter().any(|u| (u.point - v.point).norm() <= merge) {
+                    let merge = |u: &Vertex<T>| T::lit(4.0) * self.tol + u.error + v.error;
+                    if !vertices.iter().any(|u| (u.point - v.point).norm() <= merge(&u)) {
                         vertices.push(v)?;
                     }
                 }
@@ -428,11 +418,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     }
 
     /// Centroid of ordered vertices and the most robust vertex.
-    fn finish(
-        &self,
-        vertices: VertexList<T, M>,
-        held: bool,
-    ) -> Result<PolygonCentroid<T, M>, Error> {
+    fn finish(&self, vertices: VertexList<T, M>, held: bool) -> Result<PolygonCentroid<T, M>, Error> {
         let (centroid, area) = centroid(&vertices, self.tol);
         let mut best = vertices.get(0);
         let mut best_margin = -T::max_value().unwrap_or_else(T::one);
@@ -474,10 +460,7 @@ fn line_index((cable, bound): (u8, Bound)) -> usize {
 }
 
 fn line_of(h: usize) -> (u8, Bound) {
-    (
-        (h / 2) as u8,
-        if h % 2 == 1 { Bound::Max } else { Bound::Min },
-    )
+    ((h / 2) as u8, if h % 2 == 1 { Bound::Max } else { Bound::Min })
 }
 
 /// Centroid and area of a polygon given by its ordered vertices: the

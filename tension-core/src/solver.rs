@@ -73,11 +73,7 @@ pub struct TensionSolver<T: Real, const M: usize> {
 impl<T: Real, const M: usize> TensionSolver<T, M> {
     /// A solver with no history.
     pub fn new(method: Method) -> Self {
-        Self {
-            method,
-            previous_pair: None,
-            previous_tensions: None,
-        }
+        Self { method, previous_pair: None, previous_tensions: None }
     }
 
     /// The method.
@@ -107,9 +103,7 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
             method => {
                 let fact = WrenchFactorization::new(w)?;
                 match method {
-                    Method::Barycenter => {
-                        barycenter_factored(&fact, f, limits, self.previous_pair)?
-                    }
+                    Method::Barycenter => barycenter_factored(&fact, f, limits, self.previous_pair)?,
                     Method::BarycenterBrute => barycenter_brute_factored(&fact, f, limits)?,
                     Method::AnalyticCentre => AnalyticCentre::default().solve_factored(
                         &fact,
@@ -149,26 +143,15 @@ mod tests {
         let w = SMatrix::<f64, 1, 3>::new(1.0, 1.0, 1.0);
         let limits = TensionLimits::uniform(1.0, 10.0).unwrap();
         let mut solver = TensionSolver::<f64, 3>::new(Method::Barycenter);
-        solver
-            .solve(&w, &SVector::<f64, 1>::new(12.0), &limits)
-            .unwrap();
+        solver.solve(&w, &SVector::<f64, 1>::new(12.0), &limits).unwrap();
         let pair = solver.previous_pair;
         assert!(pair.is_some());
-        assert_eq!(
-            solver
-                .solve(&w, &SVector::<f64, 1>::new(100.0), &limits)
-                .unwrap_err(),
-            Error::Infeasible
-        );
+        assert_eq!(solver.solve(&w, &SVector::<f64, 1>::new(100.0), &limits).unwrap_err(), Error::Infeasible);
         assert_eq!(solver.previous_pair, pair);
-        let again = solver
-            .solve(&w, &SVector::<f64, 1>::new(12.0), &limits)
-            .unwrap();
+        let again = solver.solve(&w, &SVector::<f64, 1>::new(12.0), &limits).unwrap();
         assert_eq!(again.diagnostics.warm_start, crate::WarmStart::Held);
         solver.reset();
-        let cold = solver
-            .solve(&w, &SVector::<f64, 1>::new(12.0), &limits)
-            .unwrap();
+        let cold = solver.solve(&w, &SVector::<f64, 1>::new(12.0), &limits).unwrap();
         assert_eq!(cold.diagnostics.warm_start, crate::WarmStart::NotGiven);
         // Sum 12 in [1, 10]^3: the triangle's centroid is 4 each.
         assert!((cold.tensions - SVector::<f64, 3>::repeat(4.0)).amax() < 1e-12);

@@ -11,9 +11,7 @@ use tension_core::{Real, Robot, TensionLimits};
 
 /// `../shared` beside the repository (read-only in CI).
 pub fn shared_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("..")
-        .join("shared")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..").join("shared")
 }
 
 /// Loads `../shared/robots/<name>.toml` as an `N x M` robot.
@@ -28,9 +26,7 @@ pub fn shared_robot<T: Real, const N: usize, const M: usize>(name: &str) -> Robo
 /// Orthonormal null-space basis of `w` from the symmetric eigen-decomposition
 /// of `W^T W` (eigenvectors of the `M - N` smallest eigenvalues): a
 /// different algorithm from the Householder QR in `tension-core`.
-pub fn reference_null_space<const N: usize, const M: usize>(
-    w: &SMatrix<f64, N, M>,
-) -> DMatrix<f64> {
+pub fn reference_null_space<const N: usize, const M: usize>(w: &SMatrix<f64, N, M>) -> DMatrix<f64> {
     let wtw = DMatrix::from_fn(M, M, |i, j| w.column(i).dot(&w.column(j)));
     let eig = wtw.symmetric_eigen();
     let mut order: Vec<usize> = (0..M).collect();
@@ -46,10 +42,7 @@ pub fn reference_particular<const N: usize, const M: usize>(
 ) -> DVector<f64> {
     let wd = DMatrix::from_fn(N, M, |i, j| w[(i, j)]);
     let wwt = &wd * wd.transpose();
-    let y = wwt
-        .lu()
-        .solve(&DVector::from_fn(N, |i, _| f[i]))
-        .expect("W W^T singular");
+    let y = wwt.lu().solve(&DVector::from_fn(N, |i, _| f[i])).expect("W W^T singular");
     wd.transpose() * y
 }
 
@@ -68,12 +61,7 @@ pub struct ClippedPolygon {
 
 /// Clips the square `|x|, |y| <= radius` by `lo_k <= rows_k . p <= hi_k`.
 pub fn clip_polygon(rows: &[[f64; 2]], lo: &[f64], hi: &[f64], radius: f64) -> ClippedPolygon {
-    let mut poly = vec![
-        [-radius, -radius],
-        [radius, -radius],
-        [radius, radius],
-        [-radius, radius],
-    ];
+    let mut poly = vec![[-radius, -radius], [radius, -radius], [radius, radius], [-radius, radius]];
     for (k, n) in rows.iter().enumerate() {
         // n . p <= hi  and  -n . p <= -lo
         for (a, c) in [([n[0], n[1]], hi[k]), ([-n[0], -n[1]], -lo[k])] {
@@ -95,11 +83,7 @@ pub fn clip_polygon(rows: &[[f64; 2]], lo: &[f64], hi: &[f64], radius: f64) -> C
             }
             poly = out;
             if poly.is_empty() {
-                return ClippedPolygon {
-                    vertices: poly,
-                    area: 0.0,
-                    centroid: [f64::NAN; 2],
-                };
+                return ClippedPolygon { vertices: poly, area: 0.0, centroid: [f64::NAN; 2] };
             }
         }
     }
@@ -113,16 +97,8 @@ pub fn clip_polygon(rows: &[[f64; 2]], lo: &[f64], hi: &[f64], radius: f64) -> C
         cx += tri * (o[0] + b[0] + c[0]) / 3.0;
         cy += tri * (o[1] + b[1] + c[1]) / 3.0;
     }
-    let centroid = if area > 0.0 {
-        [cx / area, cy / area]
-    } else {
-        [f64::NAN; 2]
-    };
-    ClippedPolygon {
-        vertices: poly,
-        area,
-        centroid,
-    }
+    let centroid = if area > 0.0 { [cx / area, cy / area] } else { [f64::NAN; 2] };
+    ClippedPolygon { vertices: poly, area, centroid }
 }
 
 /// The reference barycenter of `W t = f` within `limits` (`M = N + 2`):
@@ -161,9 +137,7 @@ pub fn analytic_centre_residual<const N: usize, const M: usize>(
     limits: &TensionLimits<f64, M>,
     t: &SVector<f64, M>,
 ) -> (f64, f64) {
-    let grad = DVector::from_fn(M, |i, _| {
-        -1.0 / (t[i] - limits.min()[i]) + 1.0 / (limits.max()[i] - t[i])
-    });
+    let grad = DVector::from_fn(M, |i, _| -1.0 / (t[i] - limits.min()[i]) + 1.0 / (limits.max()[i] - t[i]));
     stationarity_residual(w, &grad, limits, t, f)
 }
 
@@ -180,9 +154,7 @@ pub fn stationarity_residual<const N: usize, const M: usize>(
     let svd = wt.clone().svd(true, true);
     let mu = svd.solve(&(-grad), 1e-14).expect("svd solve");
     let stationarity = (grad + &wt * mu).norm();
-    let half = (0..M)
-        .map(|i| 0.5 * (limits.max()[i] - limits.min()[i]))
-        .fold(f64::INFINITY, f64::min);
+    let half = (0..M).map(|i| 0.5 * (limits.max()[i] - limits.min()[i])).fold(f64::INFINITY, f64::min);
     let eq = (w * t - f).norm() / (1.0 + f.norm());
     (stationarity * half, eq)
 }

@@ -19,21 +19,14 @@ impl Tally {
     }
 
     fn one(ok: bool) -> Tally {
-        Tally {
-            passed: ok as usize,
-            failed: !ok as usize,
-        }
+        Tally { passed: ok as usize, failed: !ok as usize }
     }
 }
 
 /// Runs a command that counts as one check (formatting, lint, a build).
 pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
     println!("==> {name}: {program} {}", args.join(" "));
-    let ok = Command::new(program)
-        .args(args)
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false);
+    let ok = Command::new(program).args(args).status().map(|s| s.success()).unwrap_or(false);
     println!("==> {name}: {}", if ok { "ok" } else { "FAILED" });
     Tally::one(ok)
 }
@@ -43,12 +36,7 @@ pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
 /// error) counts as one failure.
 pub fn cargo_test(args: &[&str]) -> Tally {
     println!("==> cargo test {}", args.join(" "));
-    let mut child = match Command::new(env!("CARGO"))
-        .arg("test")
-        .args(args)
-        .stdout(Stdio::piped())
-        .spawn()
-    {
+    let mut child = match Command::new(env!("CARGO")).arg("test").args(args).stdout(Stdio::piped()).spawn() {
         Ok(child) => child,
         Err(e) => {
             println!("==> cannot run cargo test: {e}");
@@ -78,16 +66,9 @@ fn parse_result(line: &str) -> Option<Tally> {
     let rest = line.trim().strip_prefix("test result: ")?;
     let count = |word: &str| -> Option<usize> {
         let at = rest.find(&format!(" {word}"))?;
-        rest[..at]
-            .rsplit(|c: char| !c.is_ascii_digit())
-            .next()?
-            .parse()
-            .ok()
+        rest[..at].rsplit(|c: char| !c.is_ascii_digit()).next()?.parse().ok()
     };
-    Some(Tally {
-        passed: count("passed")?,
-        failed: count("failed")?,
-    })
+    Some(Tally { passed: count("passed")?, failed: count("failed")? })
 }
 
 #[cfg(test)]
@@ -96,7 +77,10 @@ mod tests {
 
     #[test]
     fn parses_cargo_result_lines() {
-        let t = parse_result("test result: ok. 12 passed; 0 failed; 0 ignored; 0 measured; 0 filtered out; finished in 0.02s").unwrap();
+        let t = parse_result(
+            "test result: ok. 12 passed; 0 failed; 0 ignored; 0 measured; 0 filtered out; finished in 0.02s",
+        )
+        .unwrap();
         assert_eq!((t.passed, t.failed), (12, 0));
         let t = parse_result("test result: FAILED. 3 passed; 2 failed; 0 ignored").unwrap();
         assert_eq!((t.passed, t.failed), (3, 2));

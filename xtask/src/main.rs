@@ -33,11 +33,8 @@ fn main() {
 /// Installs the Cortex-M target (idempotent; `rust-toolchain.toml` alone does
 /// not bring it where rustup's auto-install is off).
 fn setup_target() {
-    let ok = Command::new("rustup")
-        .args(["target", "add", TARGET])
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false);
+    let ok =
+        Command::new("rustup").args(["target", "add", TARGET]).status().map(|s| s.success()).unwrap_or(false);
     if !ok {
         eprintln!("warning: `rustup target add {TARGET}` failed");
     }
@@ -45,20 +42,15 @@ fn setup_target() {
 
 fn run() {
     setup_target();
-    let status = Command::new(env!("CARGO"))
-        .args(["run", "--release", "--quiet", "--example", "host_demo"])
-        .status();
+    let status =
+        Command::new(env!("CARGO")).args(["run", "--release", "--quiet", "--example", "host_demo"]).status();
     exit(status.map(|s| s.code().unwrap_or(1)).unwrap_or(1));
 }
 
 fn test() {
     setup_target();
     let mut tally = Tally::default();
-    tally.add(check(
-        "format",
-        env!("CARGO"),
-        &["fmt", "--all", "--", "--check"],
-    ));
+    tally.add(check("format", env!("CARGO"), &["fmt", "--all", "--", "--check"]));
     tally.add(check(
         "clippy (host crates)",
         env!("CARGO"),
@@ -67,14 +59,7 @@ fn test() {
     tally.add(check(
         "tension-core builds for the board (no_std)",
         env!("CARGO"),
-        &[
-            "build",
-            "--release",
-            "-p",
-            "tension-core",
-            "--target",
-            TARGET,
-        ],
+        &["build", "--release", "-p", "tension-core", "--target", TARGET],
     ));
     tally.add(cargo_test(&[]));
     println!("{} passed, {} failed", tally.passed, tally.failed);
