@@ -2,7 +2,7 @@
 //! (Mikelsons et al. 2008) and against an independent polygon-clipping
 //! reference, on random wrench matrices of every shape with `M = N + 2`.
 
-use cdpr_integration_tests::{clip_polygon, reference_barycenter};
+use cdpr_integration_tests::{clip_polygon, clip_polygon_auto, reference_barycenter};
 use nalgebra::{SMatrix, SVector, Vector2};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -357,7 +357,7 @@ fn nearly_parallel_bundles() {
                         a.centroid,
                         b.centroid
                     );
-                    let clipped = clip_polygon(&rows, &lo, &hi, 1e4);
+                    let clipped = clip_polygon_auto(&rows, &lo, &hi);
                     if clipped.area > 1e-6 {
                         prop_assert!(
                             (a.centroid.x - clipped.centroid[0]).abs()

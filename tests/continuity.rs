@@ -292,3 +292,20 @@ fn f32_agrees_with_f64() {
     assert!(compared > samples.len() / 3);
     assert!(worst <= 1e-4, "f32 deviates by {worst} of the range");
 }
+
+/// At IPAnema 1's symmetric centre pairs of polygon lines coincide; a pose
+/// 1e-13 away makes them cross at an angle of about 1e-13, a crossing lost in
+/// rounding. Such crossings are taken as parallel, so the answer does not jump.
+#[test]
+fn nearly_coincident_lines_do_not_make_a_jump() {
+    let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
+    let centre = p6(0.0, 0.0, 1.0, 0.0, 0.0, 0.0);
+    let nudged = centre + p6(2.4e-13, 7.6e-14, -3.0e-14, 0.0, 1.5e-14, 1.5e-14);
+    let solve = |pose: &SVector<f64, 6>| {
+        let w = robot.wrench_matrix(pose).unwrap();
+        let f = robot.required_wrench(pose, &SVector::zeros(), None).unwrap();
+        tension_core::barycenter(&w, &f, robot.limits(), None).unwrap().tensions
+    };
+    let (a, b) = (solve(&centre), solve(&nudged));
+    assert!((a - b).amax() < 1e-9, "{a:?} vs {b:?}");
+}

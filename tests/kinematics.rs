@@ -187,3 +187,29 @@ fn motor_torque_follows_the_spec_and_reports_saturation() {
     assert!(Winch::<f64>::new(0.04, 8.0, 1.5, 2.5).is_err());
     assert!(Winch::<f64>::new(0.0, 8.0, 0.9, 2.5).is_err());
 }
+
+#[test]
+fn one_pass_wrench_problem_equals_the_separate_calls() {
+    let robot: Robot<f32, 6, 8> = shared_robot("suspended-8");
+    let pose = SVector::<f32, 6>::new(0.3, -0.2, 1.4, 0.1, -0.05, 0.3);
+    let vel = SVector::<f32, 6>::new(0.1, 0.2, -0.1, 0.3, 0.2, -0.4);
+    let acc = SVector::<f32, 6>::new(1.0, -0.5, 0.2, 0.7, -0.3, 0.5);
+    let extra = SVector::<f32, 6>::new(1.0, 0.0, 0.0, 0.0, 0.5, 0.0);
+    let (w, f) = robot.wrench_problem(&pose, &extra, Some((&vel, &acc))).unwrap();
+    let motion = Motion::from_pose_derivatives(RobotKind::Spatial6, &pose, &vel, &acc).unwrap();
+    assert_eq!(w, robot.wrench_matrix(&pose).unwrap());
+    assert_eq!(f, robot.required_wrench(&pose, &extra, Some(&motion)).unwrap());
+    let (_, f_static) = robot.wrench_problem(&pose, &extra, None).unwrap();
+    assert_eq!(f_static, robot.required_wrench(&pose, &extra, None).unwrap());
+    // f32 kinematics (single-precision sine and cosine) against f64.
+    let r64: Robot<f64, 6, 8> = shared_robot("suspended-8");
+    let (w64, f64_) = r64
+        .wrench_problem(
+            &pose.map(|x| x as f64),
+            &extra.map(|x| x as f64),
+            Some((&vel.map(|x| x as f64), &acc.map(|x| x as f64))),
+        )
+        .unwrap();
+    assert!((w.map(|x| x as f64) - w64).amax() < 1e-6);
+    assert!((f.map(|x| x as f64) - f64_).amax() < 1e-4);
+}

@@ -33,7 +33,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::{
     linalg::{cholesky_solve_leading, WrenchFactorization},
-    scalar::{all_finite, greater},
+    scalar::{finite, greater},
     solution::{robustness, Diagnostics, Solution, WarmStart},
     Error, Real, TensionLimits,
 };
@@ -70,7 +70,7 @@ impl<T: Real, const M: usize> BarrierWeights<T, M> {
 
     /// Weights for the lower and upper bounds; each must be finite and `> 0`.
     pub fn new(lower: SVector<T, M>, upper: SVector<T, M>) -> Result<Self, Error> {
-        if !all_finite(lower.iter().chain(upper.iter()).copied()) {
+        if !(finite(lower.as_slice()) && finite(upper.as_slice())) {
             return Err(Error::NonFinite);
         }
         if lower.iter().chain(upper.iter()).any(|&c| c <= T::zero()) {
@@ -158,11 +158,11 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
         limits: &TensionLimits<T, M>,
         start: Option<&SVector<T, M>>,
     ) -> Result<Solution<T, M>, Error> {
-        if !all_finite(f.iter().copied()) {
+        if !finite(f.as_slice()) {
             return Err(Error::NonFinite);
         }
         if let Some(s) = start {
-            if !all_finite(s.iter().copied()) {
+            if !finite(s.as_slice()) {
                 return Err(Error::NonFinite);
             }
         }
@@ -216,11 +216,11 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                     }
                     s += za * za;
                 }
-                s.sqrt()
+                s.sqrt_native()
             };
             if on_sigma && reduced_grad_norm * half_range <= self.settings.tolerance {
                 let t_final = t;
-                if !all_finite(t_final.iter().copied()) {
+                if !finite(t_final.as_slice()) {
                     return Err(Error::NonFinite);
                 }
                 return Ok(Solution {
@@ -286,7 +286,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                     step[i] += fact.null(i, a) * rhs[a];
                 }
             }
-            if !all_finite(step.iter().copied()) {
+            if !finite(step.as_slice()) {
                 return Err(Error::NonFinite);
             }
             // Largest step keeping the box strict.
@@ -337,7 +337,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
     }
 
     fn in_domain(&self, t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> bool {
-        all_finite(t.iter().copied())
+        finite(t.as_slice())
             && (0..M).all(|i| t[i] > limits.min()[i] && t[i] < limits.max()[i])
             && self.constraints.iter().all(|c| c.value(t) < T::zero())
     }
@@ -406,7 +406,7 @@ fn certify_infeasible<T: Real, const N: usize, const M: usize>(
     let mut t = clamp(*t0);
     for _ in 0..64 {
         let y = f - w * t;
-        if !all_finite(y.iter().copied()) {
+        if !finite(y.as_slice()) {
             return false;
         }
         let mut support = T::zero();

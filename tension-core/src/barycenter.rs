@@ -13,7 +13,7 @@ pub use crate::polygon::{ActivePair, Bound};
 use crate::{
     linalg::WrenchFactorization,
     polygon::{FeasiblePolygon, PolygonCentroid},
-    scalar::all_finite,
+    scalar::finite,
     solution::{robustness, Diagnostics, Solution, WarmStart},
     Error, Real, TensionLimits,
 };
@@ -39,11 +39,11 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
         if M != N + 2 {
             return Err(Error::UnsupportedShape);
         }
-        if !all_finite(f.iter().copied()) {
+        if !finite(f.as_slice()) {
             return Err(Error::NonFinite);
         }
         let particular = fact.min_norm_solution(f);
-        if !all_finite(particular.iter().copied()) {
+        if !finite(particular.as_slice()) {
             return Err(Error::NonFinite);
         }
         let rows = fact.null_rows_2();
@@ -68,7 +68,7 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
         let robustness = robustness(&tensions, limits);
         // The centroid lies in the polygon; rounding may put a degenerate
         // (zero-area) one a few ulps outside, never more than the tolerance.
-        if robustness < -self.polygon.tolerance() || !all_finite(tensions.iter().copied()) {
+        if robustness < -self.polygon.tolerance() || !finite(tensions.as_slice()) {
             return Err(Error::Infeasible);
         }
         Ok(Solution {

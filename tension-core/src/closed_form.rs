@@ -5,7 +5,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::{
     linalg::WrenchFactorization,
-    scalar::all_finite,
+    scalar::finite,
     solution::{robustness, Diagnostics, Solution},
     Error, Real, TensionLimits,
 };
@@ -33,7 +33,7 @@ pub fn closed_form_factored<T: Real, const N: usize, const M: usize>(
     f: &SVector<T, N>,
     limits: &TensionLimits<T, M>,
 ) -> Result<Solution<T, M>, Error> {
-    if !all_finite(f.iter().copied()) {
+    if !finite(f.as_slice()) {
         return Err(Error::NonFinite);
     }
     let all = [true; M];
@@ -67,7 +67,7 @@ pub fn improved_closed_form<T: Real, const N: usize, const M: usize>(
     if N == 0 || N > M {
         return Err(Error::UnsupportedShape);
     }
-    if !all_finite(f.iter().copied()) {
+    if !finite(f.as_slice()) {
         return Err(Error::NonFinite);
     }
     let mut free = [true; M];
@@ -134,7 +134,7 @@ fn reduced_closed_form<T: Real, const N: usize, const M: usize>(
     }
     let residual = f - w * middle;
     let t = middle + fact.min_norm_solution(&residual);
-    if all_finite(t.iter().copied()) {
+    if finite(t.as_slice()) {
         Ok(t)
     } else {
         Err(Error::NonFinite)

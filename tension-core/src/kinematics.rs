@@ -11,7 +11,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use crate::{
-    scalar::{all_finite, greater},
+    scalar::{all_finite, finite, greater},
     Error, Real, TensionLimits,
 };
 
@@ -167,7 +167,7 @@ impl<T: Real> Motion<T> {
             RobotKind::Spatial6 => {
                 let (a, b) = (pose[3], pose[4]);
                 let (da, db, dc) = (velocity[3], velocity[4], velocity[5]);
-                let (sa, ca, sb, cb) = (a.sin(), a.cos(), b.sin(), b.cos());
+                let ((sa, ca), (sb, cb)) = (a.sin_cos_native(), b.sin_cos_native());
                 let j1 = Vector3::new(T::one(), z, z);
                 let j2 = Vector3::new(z, ca, sa);
                 let j3 = Vector3::new(sb, -sa * cb, ca * cb);
@@ -290,7 +290,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
 
     /// Position `p` and rotation `R` of a pose (SPEC "Poses").
     pub fn frame(&self, pose: &Pose<T, N>) -> Result<(Vector3<T>, Matrix3<T>), Error> {
-        if !all_finite(pose.iter().copied()) {
+        if !finite(pose.as_slice()) {
             return Err(Error::NonFinite);
         }
         let z = T::zero();
@@ -311,6 +311,11 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
     /// `1000 eps` times the size of the robot (no direction).
     pub fn cables(&self, pose: &Pose<T, N>) -> Result<CableState<T, M>, Error> {
         let (p, rot) = self.frame(pose)?;
+        self.cables_at(&p, &rot)
+    }
+
+    fn cables_at(&self, p: &Vector3<T>, rot: &Matrix3<T>) -> Result<CableState<T, M>, Error> {
+        let p = *p;
         let planar = self.kind != RobotKind::Spatial6;
         let flatten = |v: Vector3<T>| {
             if planar {
@@ -333,8 +338,8 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
             let anchor = flatten(self.anchors[i]);
             size = size.max(anchor.amax()).max(rb.amax());
             let l = anchor - p - rb;
-            let length = l.norm();
-            if !all_finite(l.iter().copied()) || !length.is_finite() {
+            let length = l.norm_squared().sqrt_native();
+            if !finite(l.as_slice()) || !length.is_finite() {
                 return Err(Error::NonFinite);
             }
             state.lengths[i] = length;
@@ -399,7 +404,17 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         motion: Option<&Motion<T>>,
     ) -> Result<SVector<T, N>, Error> {
         let (_, rot) = self.frame(pose)?;
-        if !all_finite(extra.iter().copied()) {
+        self.external_wrench_at(&rot, extra, motion)
+    }
+
+    fn external_wrench_at(
+        &self,
+        rot: &Matrix3<T>,
+        extra: &SVector<T, N>,
+        motion: Option<&Motion<T>>,
+    ) -> Result<SVector<T, N>, Error> {
+        let rot = *rot;
+        if !finite(extra.as_slice()) {
             return Err(Error::NonFinite);
         }
         let pf = &self.platform;
@@ -445,11 +460,34 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
                 w[1] = force.y + extra[1];
             }
         }
-        if all_finite(w.iter().copied()) {
+        if finite(w.as_slice()) {
             Ok(w)
         } else {
             Err(Error::NonFinite)
         }
+    }
+
+    /// The wrench matrix and the wrench the cables must produce at a pose, in
+    /// one pass: the frame (and its sines and cosines) is computed once.
+    /// `derivatives` are the pose's first and second time derivatives, for the
+    /// d'Alembert wrench ([`Motion::from_pose_derivatives`]); `None` for statics.
+    /// The same as [`Self::wrench_matrix`] and [`Self::required_wrench`].
+    pub fn wrench_problem(
+        &self,
+        pose: &Pose<T, N>,
+        extra: &SVector<T, N>,
+        derivatives: Option<(&Pose<T, N>, &Pose<T, N>)>,
+    ) -> Result<(SMatrix<T, N, M>, SVector<T, N>), Error> {
+        let (p, rot) = self.frame(pose)?;
+        let cables = self.cables_at(&p, &rot)?;
+        let motion = match derivatives {
+            Some((velocity, acceleration)) => {
+                Some(Motion::from_pose_derivatives(self.kind, pose, velocity, acceleration)?)
+            }
+            None => None,
+        };
+        let f = -self.external_wrench_at(&rot, extra, motion.as_ref())?;
+        Ok((self.wrench_matrix_of(&cables), f))
     }
 
     /// The wrench the cables must produce, `f = -w_e` (so that `W t = f`).
@@ -464,19 +502,19 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
 }
 
 fn rotation_x<T: Real>(a: T) -> Matrix3<T> {
-    let (s, c) = (a.sin(), a.cos());
+    let (s, c) = a.sin_cos_native();
     let (o, l) = (T::zero(), T::one());
     Matrix3::new(l, o, o, o, c, -s, o, s, c)
 }
 
 fn rotation_y<T: Real>(a: T) -> Matrix3<T> {
-    let (s, c) = (a.sin(), a.cos());
+    let (s, c) = a.sin_cos_native();
     let (o, l) = (T::zero(), T::one());
     Matrix3::new(c, o, s, o, l, o, -s, o, c)
 }
 
 fn rotation_z<T: Real>(a: T) -> Matrix3<T> {
-    let (s, c) = (a.sin(), a.cos());
+    let (s, c) = a.sin_cos_native();
     let (o, l) = (T::zero(), T::one());
     Matrix3::new(c, -s, o, s, c, o, o, o, l)
 }

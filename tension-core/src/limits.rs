@@ -2,7 +2,7 @@
 
 use nalgebra::SVector;
 
-use crate::{scalar::all_finite, Error, Real};
+use crate::{scalar::finite, Error, Real};
 
 /// Lower and upper tension limit of every cable, `0 <= t_min < t_max`
 /// (SPEC "Robot description files": the same for every cable unless a cable
@@ -17,7 +17,7 @@ impl<T: Real, const M: usize> TensionLimits<T, M> {
     /// Per-cable limits; [`Error::NonFinite`] or [`Error::InvalidLimits`]
     /// unless every pair is finite with `0 <= t_min < t_max`.
     pub fn new(min: SVector<T, M>, max: SVector<T, M>) -> Result<Self, Error> {
-        if !all_finite(min.iter().chain(max.iter()).copied()) {
+        if !(finite(min.as_slice()) && finite(max.as_slice())) {
             return Err(Error::NonFinite);
         }
         for i in 0..M {

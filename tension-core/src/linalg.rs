@@ -13,7 +13,7 @@
 use nalgebra::{SMatrix, SVector, Vector2};
 
 use crate::{
-    scalar::{all_finite, greater},
+    scalar::{all_finite, finite, greater},
     Error, Real,
 };
 
@@ -51,7 +51,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         if N == 0 || N > M {
             return Err(Error::UnsupportedShape);
         }
-        if !all_finite(w.iter().copied()) {
+        if !finite(w.as_slice()) {
             return Err(Error::NonFinite);
         }
         // a = W^T with dropped cables zeroed (M x N).
@@ -63,35 +63,36 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         }
         let mut v: SMatrix<T, M, N> = SMatrix::zeros();
         let mut beta: SVector<T, N> = SVector::zeros();
+        // Column-major slices: column j is [j * M, (j + 1) * M). Zipped
+        // sub-slices keep the inner loops free of index checks.
+        let a_s = a.as_mut_slice();
+        let v_s = v.as_mut_slice();
         for k in 0..N {
             // Householder vector for a[k.., k].
-            let mut norm2 = T::zero();
-            for i in k..M {
-                norm2 += a[(i, k)] * a[(i, k)];
-            }
-            let norm = norm2.sqrt();
+            let col = &a_s[k * M + k..(k + 1) * M];
+            let norm2 = dot(col, col);
+            let norm = norm2.sqrt_native();
             if norm == T::zero() {
                 continue; // rank deficiency, caught on R's diagonal below
             }
-            let alpha = if a[(k, k)] >= T::zero() { -norm } else { norm };
-            for i in k..M {
-                v[(i, k)] = a[(i, k)];
-            }
-            v[(k, k)] -= alpha;
-            let vnorm2 = norm2 - a[(k, k)] * a[(k, k)] + v[(k, k)] * v[(k, k)];
+            let akk = col[0];
+            let alpha = if akk >= T::zero() { -norm } else { norm };
+            let vk = &mut v_s[k * M + k..(k + 1) * M];
+            vk.copy_from_slice(col);
+            vk[0] -= alpha;
+            let vnorm2 = norm2 - akk * akk + vk[0] * vk[0];
             if vnorm2 == T::zero() {
                 continue;
             }
-            beta[k] = T::lit(2.0) / vnorm2;
+            let b = T::lit(2.0) / vnorm2;
+            beta[k] = b;
+            let vk = &v_s[k * M + k..(k + 1) * M];
             // a <- H a on rows k.., columns k..
             for j in k..N {
-                let mut s = T::zero();
-                for i in k..M {
-                    s += v[(i, k)] * a[(i, j)];
-                }
-                s *= beta[k];
-                for i in k..M {
-                    a[(i, j)] -= s * v[(i, k)];
+                let cj = &mut a_s[j * M + k..(j + 1) * M];
+                let s = dot(vk, cj) * b;
+                for (c, &x) in cj.iter_mut().zip(vk) {
+                    *c -= s * x;
                 }
             }
         }
@@ -111,7 +112,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             fact.apply_q(&mut e);
             fact.z.set_column(k, &e);
         }
-        if !all_finite(fact.z.iter().chain(fact.r.iter()).copied()) {
+        if !(finite(fact.z.as_slice()) && finite(fact.r.as_slice())) {
             return Err(Error::NonFinite);
         }
         let threshold = T::lit(16.0) * T::lit(M as f64) * T::eps() * rmax;
@@ -125,14 +126,14 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
 
     /// `x <- Q x = H_1 (H_2 (... H_N x))`.
     fn apply_q(&self, x: &mut SVector<T, M>) {
+        let v_s = self.v.as_slice();
+        let x_s = x.as_mut_slice();
         for k in (0..N).rev() {
-            let mut s = T::zero();
-            for i in k..M {
-                s += self.v[(i, k)] * x[i];
-            }
-            s *= self.beta[k];
-            for i in k..M {
-                x[i] -= s * self.v[(i, k)];
+            let vk = &v_s[k * M + k..(k + 1) * M];
+            let xk = &mut x_s[k..];
+            let s = dot(vk, xk) * self.beta[k];
+            for (c, &x) in xk.iter_mut().zip(vk) {
+                *c -= s * x;
             }
         }
     }
@@ -170,6 +171,12 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
     }
 }
 
+/// `sum a_i b_i` over the shorter of the two slices.
+#[inline]
+fn dot<T: Real>(a: &[T], b: &[T]) -> T {
+    a.iter().zip(b).fold(T::zero(), |s, (&x, &y)| s + x * y)
+}
+
 /// Solves `a x = b` for a symmetric positive definite matrix stored in the
 /// leading `k x k` block of `a` (Cholesky, in place, bounded `k^3/6` steps).
 /// [`Error::NoConvergence`] is not possible; a non-positive pivot gives
@@ -189,7 +196,7 @@ pub fn cholesky_solve_leading<T: Real, const M: usize>(
         if !greater(d, T::zero()) || !d.is_finite() {
             return Err(Error::Singular);
         }
-        let d = d.sqrt();
+        let d = d.sqrt_native();
         a[(j, j)] = d;
         for i in (j + 1)..k {
             let mut s = a[(i, j)];

@@ -20,7 +20,10 @@
 
 use nalgebra::Vector2;
 
-use crate::{scalar::all_finite, Error, Real};
+use crate::{
+    scalar::{all_finite, finite},
+    Error, Real,
+};
 
 /// Which limit of a cable a polygon edge lies on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -132,6 +135,7 @@ pub struct FeasiblePolygon<T: Real, const M: usize> {
     upper: [T; M],
     used: [bool; M],
     tol: T,
+    parallel: T,
 }
 
 impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
@@ -143,12 +147,11 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         if M > 32 {
             return Err(Error::UnsupportedShape);
         }
-        let finite = all_finite(rows.iter().flat_map(|r| [r.x, r.y]))
-            && all_finite(lower.iter().chain(upper.iter()).copied());
-        if !finite {
+        let rows_finite = rows.iter().fold(true, |ok, r| ok & r.x.is_finite() & r.y.is_finite());
+        if !(rows_finite && finite(&lower) && finite(&upper)) {
             return Err(Error::NonFinite);
         }
-        let norms: [T; M] = core::array::from_fn(|k| rows[k].norm());
+        let norms: [T; M] = core::array::from_fn(|k| rows[k].norm_squared().sqrt_native());
         let mut scale = T::zero();
         let mut row_max = T::zero();
         for k in 0..M {
@@ -173,7 +176,11 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 used[k] = false;
             }
         }
-        Ok(Self { rows, norms, lower, upper, used, tol })
+        // Lines closer than this to parallel (sine of their angle) are taken
+        // as parallel: their crossing is lost in rounding, and the sliver
+        // between them is too thin to move the centroid.
+        let parallel = T::lit(16.0) * T::eps().sqrt_native();
+        Ok(Self { rows, norms, lower, upper, used, tol, parallel })
     }
 
     /// The slack tolerance used for "on a line" and "feasible", tension units.
@@ -223,7 +230,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let a2 = self.normal(h2);
         let (n1, n2) = (self.norms[h1 / 2], self.norms[h2 / 2]);
         let det = a1.x * a2.y - a1.y * a2.x;
-        if det.abs() <= T::lit(16.0) * T::eps() * n1 * n2 {
+        if det.abs() <= self.parallel * n1 * n2 {
             return None;
         }
         let c1 = self.offset(h1);
@@ -282,13 +289,21 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             None => self.first_vertex().ok_or(Error::Infeasible)?,
         };
         match self.walk_from(start) {
-            Some(vertices) => self.finish(vertices, held),
+            Some((vertices, robust_pair)) => self.finish(vertices, Some(robust_pair), held),
             None => self.brute_force(),
         }
     }
 
     /// The walk itself; `None` on a numerical anomaly (an edge met twice).
-    fn walk_from(&self, start: Vertex<T>) -> Option<VertexList<T, M>> {
+    /// Also returns the vertex farthest from the lines that do not define
+    /// it (the robust warm start for the next cycle), from slacks the walk
+    /// computes anyway.
+    ///
+    /// Per step and per cable: `n_k . v` and `n_k . d` (two dot products), at
+    /// most one division for the limit the edge approaches (Eqs. 16-18), then
+    /// the smallest step (Eq. 19) and, among lines reached at the same point,
+    /// the edge-supporting one (Sect. 2.3).
+    fn walk_from(&self, start: Vertex<T>) -> Option<(VertexList<T, M>, ActivePair)> {
         let mut vertices = VertexList::new();
         vertices.push(start).ok()?;
         // Outgoing edge at the first vertex: an active line along which no
@@ -311,44 +326,72 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 break;
             }
         }
+        // Margin of the first vertex: its smallest slack to another cable's lines.
+        let mut best_margin = T::max_value()?;
+        for k in 0..M {
+            if self.used[k] && k != l0 / 2 && k != l1 / 2 {
+                let nv = self.rows[k].dot(&start.point);
+                best_margin = best_margin.min((nv - self.lower[k]).min(self.upper[k] - nv) / self.norms[k]);
+            }
+        }
+        let mut best_lines = start.lines;
         let Some(first_edge) = edge else {
-            return Some(vertices); // a single point
+            return Some((vertices, pair_of(best_lines))); // a single point
         };
         let mut visited: u64 = 1 << first_edge;
         let mut h = first_edge;
         let mut v = start.point;
+        let mut nv = [T::zero(); M];
+        let mut nd = [T::zero(); M];
         for _ in 0..=2 * M {
-            let o = self.normal(h).normalize();
+            let a_h = self.normal(h);
+            let o = a_h / self.norms[h / 2];
             let d = Vector2::new(-o.y, o.x);
-            // Smallest step to another line along the edge (Eqs. 16-19).
+            // Smallest step to another line along the edge (Eqs. 16-19): per
+            // cable only the limit the direction approaches can be reached.
             let mut alpha_min = T::max_value()?;
             let mut any = false;
-            for g in 0..2 * M {
-                if g == h || !self.is_used(g) {
+            for k in 0..M {
+                if !self.used[k] {
                     continue;
                 }
-                let ad = self.normal(g).dot(&d);
-                if ad > self.dir_tol(g) {
-                    any = true;
-                    alpha_min = alpha_min.min(self.slack(g, &v) / ad);
-                }
+                nv[k] = self.rows[k].dot(&v);
+                nd[k] = self.rows[k].dot(&d);
+                let dtol = self.parallel * self.norms[k];
+                let alpha = if nd[k] > dtol && 2 * k + 1 != h {
+                    (self.upper[k] - nv[k]) / nd[k]
+                } else if -nd[k] > dtol && 2 * k != h {
+                    (nv[k] - self.lower[k]) / -nd[k]
+                } else {
+                    continue;
+                };
+                any = true;
+                alpha_min = alpha_min.min(alpha);
             }
             if !any {
                 return None;
             }
-            let w_guess = v + d * alpha_min.max(T::zero());
+            let alpha = alpha_min.max(T::zero());
             // Among lines reached there (ties: concurrent lines, Sect. 2.3),
             // the edge-supporting one bounds the normal cone: the largest
             // counter-clockwise angle from the current normal.
             let mut next = None;
             let mut best_cos = T::max_value()?;
-            for g in 0..2 * M {
-                if g == h || !self.is_used(g) {
+            for k in 0..M {
+                if !self.used[k] {
                     continue;
                 }
-                let a = self.normal(g);
-                if a.dot(&d) > self.dir_tol(g) && self.slack(g, &w_guess) <= self.tol {
-                    let cos = a.dot(&o) / self.norms[g / 2];
+                let dtol = self.parallel * self.norms[k];
+                let at_w = nv[k] + alpha * nd[k];
+                let (g, slack, sign) = if nd[k] > dtol {
+                    (2 * k + 1, self.upper[k] - at_w, T::one())
+                } else if -nd[k] > dtol {
+                    (2 * k, at_w - self.lower[k], -T::one())
+                } else {
+                    continue;
+                };
+                if g != h && slack <= self.tol {
+                    let cos = sign * self.rows[k].dot(&o) / self.norms[k];
                     if cos < best_cos {
                         best_cos = cos;
                         next = Some(g);
@@ -357,14 +400,27 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
             let g = next?;
             if g == first_edge {
-                return Some(vertices);
+                return Some((vertices, pair_of(best_lines)));
             }
             if visited & (1 << g) != 0 {
                 return None;
             }
             visited |= 1 << g;
+            let w_guess = v + d * alpha;
             let (w, error) = self.intersect(h, g).unwrap_or((w_guess, self.tol));
             vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
+            // Margin of the new vertex from the slacks along the edge.
+            let mut margin = T::max_value()?;
+            for k in 0..M {
+                if self.used[k] && k != h / 2 && k != g / 2 {
+                    let at_w = nv[k] + alpha * nd[k];
+                    margin = margin.min((at_w - self.lower[k]).min(self.upper[k] - at_w) / self.norms[k]);
+                }
+            }
+            if margin > best_margin {
+                best_margin = margin;
+                best_lines = (h as u8, g as u8);
+            }
             h = g;
             v = w;
         }
@@ -374,7 +430,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// Threshold for "moving along `d` approaches line `g`".
     #[inline]
     fn dir_tol(&self, g: usize) -> T {
-        T::lit(16.0) * T::eps() * self.norms[g / 2]
+        self.parallel * self.norms[g / 2]
     }
 
     /// Every pairwise intersection that is feasible, merged with any other
@@ -386,7 +442,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             for h2 in (h1 + 1)..2 * M {
                 if let Some(v) = self.vertex_of(h1, h2) {
                     let merge = |u: &Vertex<T>| T::lit(4.0) * self.tol + u.error + v.error;
-                    if !vertices.iter().any(|u| (u.point - v.point).norm() <= merge(&u)) {
+                    if !vertices.iter().any(|u| (u.point - v.point).norm_squared().sqrt_native() <= merge(&u))
+                    {
                         vertices.push(v)?;
                     }
                 }
@@ -414,44 +471,48 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 j -= 1;
             }
         }
-        self.finish(vertices, false)
+        self.finish(vertices, None, false)
     }
 
-    /// Centroid of ordered vertices and the most robust vertex.
-    fn finish(&self, vertices: VertexList<T, M>, held: bool) -> Result<PolygonCentroid<T, M>, Error> {
+    /// Centroid of ordered vertices and the most robust vertex (computed
+    /// here unless the walk already found it).
+    fn finish(
+        &self,
+        vertices: VertexList<T, M>,
+        robust_pair: Option<ActivePair>,
+        held: bool,
+    ) -> Result<PolygonCentroid<T, M>, Error> {
         let (centroid, area) = centroid(&vertices, self.tol);
-        let mut best = vertices.get(0);
-        let mut best_margin = -T::max_value().unwrap_or_else(T::one);
-        for v in vertices.iter() {
-            let margin = (0..2 * M)
-                .filter(|&g| self.is_used(g) && g != v.lines.0 as usize && g != v.lines.1 as usize)
-                .map(|g| self.slack(g, &v.point) / self.norms[g / 2])
-                .fold(T::max_value().unwrap_or_else(T::one), |a, b| a.min(b));
-            if margin > best_margin {
-                best_margin = margin;
-                best = v;
+        let robust_pair = robust_pair.unwrap_or_else(|| {
+            let mut best = vertices.get(0);
+            let mut best_margin = -T::max_value().unwrap_or_else(T::one);
+            for v in vertices.iter() {
+                let margin = (0..2 * M)
+                    .filter(|&g| self.is_used(g) && g != v.lines.0 as usize && g != v.lines.1 as usize)
+                    .map(|g| self.slack(g, &v.point) / self.norms[g / 2])
+                    .fold(T::max_value().unwrap_or_else(T::one), |a, b| a.min(b));
+                if margin > best_margin {
+                    best_margin = margin;
+                    best = v;
+                }
             }
-        }
+            pair_of(best.lines)
+        });
         if !all_finite([centroid.x, centroid.y, area]) {
             return Err(Error::NonFinite);
         }
-        Ok(PolygonCentroid {
-            centroid,
-            vertices,
-            area,
-            robust_pair: ActivePair {
-                first: line_of(best.lines.0 as usize),
-                second: line_of(best.lines.1 as usize),
-            },
-            warm_start_held: held,
-        })
+        Ok(PolygonCentroid { centroid, vertices, area, robust_pair, warm_start_held: held })
     }
+}
+
+fn pair_of(lines: (u8, u8)) -> ActivePair {
+    ActivePair { first: line_of(lines.0 as usize), second: line_of(lines.1 as usize) }
 }
 
 /// Counter-clockwise direction along a line with outward normal `a`.
 #[inline]
 fn direction<T: Real>(a: &Vector2<T>) -> Vector2<T> {
-    let o = a.normalize();
+    let o = a / a.norm_squared().sqrt_native();
     Vector2::new(-o.y, o.x)
 }
 
@@ -477,8 +538,7 @@ pub fn centroid<T: Real, const M: usize>(vertices: &VertexList<T, M>, tol: T) ->
     let mut twice_area = T::zero();
     let mut cx = T::zero();
     let mut cy = T::zero();
-    let mut diameter = T::zero();
-    let mut far = (origin, origin);
+    let (mut lo, mut hi) = (Vector2::zeros(), Vector2::zeros());
     for i in 0..q {
         let p = vertices.get(i).point - origin;
         let n = vertices.get((i + 1) % q).point - origin;
@@ -486,18 +546,25 @@ pub fn centroid<T: Real, const M: usize>(vertices: &VertexList<T, M>, tol: T) ->
         twice_area += cross;
         cx += (p.x + n.x) * cross;
         cy += (p.y + n.y) * cross;
+        lo = lo.inf(&p);
+        hi = hi.sup(&p);
+    }
+    let area = twice_area * T::lit(0.5);
+    if area > tol * (hi - lo).norm_squared().sqrt_native() {
+        let c = Vector2::new(cx, cy) / (T::lit(6.0) * area);
+        return (c + origin, area);
+    }
+    // Zero area: the midpoint of the two farthest vertices.
+    let mut diameter = T::zero();
+    let mut far = (origin, origin);
+    for i in 0..q {
         for j in (i + 1)..q {
-            let dist = (vertices.get(j).point - vertices.get(i).point).norm();
+            let dist = (vertices.get(j).point - vertices.get(i).point).norm_squared().sqrt_native();
             if dist > diameter {
                 diameter = dist;
                 far = (vertices.get(i).point, vertices.get(j).point);
             }
         }
     }
-    let area = twice_area * T::lit(0.5);
-    if area <= tol * diameter {
-        return ((far.0 + far.1) * T::lit(0.5), T::zero());
-    }
-    let c = Vector2::new(cx, cy) / (T::lit(6.0) * area);
-    (c + origin, area)
+    ((far.0 + far.1) * T::lit(0.5), T::zero())
 }

@@ -10,6 +10,14 @@ pub trait Real: RealField + Copy {
     fn lit(x: f64) -> Self;
     /// Machine epsilon of the type.
     fn eps() -> Self;
+    /// `(sin x, cos x)` in the type's own precision. `f64` uses libm; `f32` uses [`sin_cos_f32`], which
+    /// stays in single precision (libm's `sinf`/`cosf` work in `f64`, which
+    /// the Cortex-M4F emulates in software at about 1200 instructions a call).
+    fn sin_cos_native(self) -> (Self, Self);
+    /// Square root in the type's own precision. `f64` uses libm; `f32` uses
+    /// [`sqrt_f32`] (libm's `sqrtf` is a bit-by-bit software loop on
+    /// Cortex-M, where no libm routine uses the FPU's square root).
+    fn sqrt_native(self) -> Self;
 }
 
 impl Real for f64 {
@@ -20,6 +28,14 @@ impl Real for f64 {
     #[inline]
     fn eps() -> Self {
         f64::EPSILON
+    }
+    #[inline]
+    fn sin_cos_native(self) -> (Self, Self) {
+        (nalgebra::ComplexField::sin(self), nalgebra::ComplexField::cos(self))
+    }
+    #[inline]
+    fn sqrt_native(self) -> Self {
+        nalgebra::ComplexField::sqrt(self)
     }
 }
 
@@ -32,9 +48,86 @@ impl Real for f32 {
     fn eps() -> Self {
         f32::EPSILON
     }
+    #[inline]
+    fn sin_cos_native(self) -> (Self, Self) {
+        sin_cos_f32(self)
+    }
+    #[inline]
+    fn sqrt_native(self) -> Self {
+        sqrt_f32(self)
+    }
 }
 
-/// `true` when every entry of the slice is finite.
+/// Square root in single precision: a first guess from halving the exponent
+/// in the bit pattern (within 4 %), then three Newton (Heron) steps
+/// `y <- (y + x / y) / 2`, each doubling the correct digits
+/// (4e-2 -> 8e-4 -> 3e-7 -> rounding), so the result is within one unit in
+/// the last place. Zero, infinity and NaN map to themselves, a negative
+/// number to NaN, as `sqrt` does; subnormals are scaled first.
+pub fn sqrt_f32(x: f32) -> f32 {
+    if x.is_nan() || x < 0.0 {
+        return f32::NAN;
+    }
+    if x == 0.0 || x == f32::INFINITY {
+        return x;
+    }
+    // Scale subnormals into the normal range (sqrt(2^24) = 2^12).
+    let (x, scale) = if x < f32::MIN_POSITIVE { (x * 16_777_216.0, 1.0 / 4096.0) } else { (x, 1.0) };
+    let mut y = f32::from_bits((x.to_bits() >> 1) + 0x1fbd_1df5);
+    for _ in 0..3 {
+        y = 0.5 * (y + x / y);
+    }
+    y * scale
+}
+
+/// `(sin x, cos x)` in single precision: the quadrant `q = round(2x / pi)`,
+/// the remainder `r = x - q pi/2` by Cody-Waite reduction with `pi/2` split in
+/// three `f32` parts (exact products for `|q| < 2^12`), then the minimax
+/// polynomials of the Cephes library's `sinf`/`cosf` on `[-pi/4, pi/4]`
+/// (error below 2 ulp there). Arguments beyond `|x| = 8192` (never a pose
+/// angle) go to libm. NaN in, NaN out; nothing panics.
+pub fn sin_cos_f32(x: f32) -> (f32, f32) {
+    use nalgebra::ComplexField;
+    if x.is_nan() || x.abs() > 8192.0 {
+        return (ComplexField::sin(x), ComplexField::cos(x));
+    }
+    const TWO_OVER_PI: f32 = core::f32::consts::FRAC_2_PI;
+    const PIO2_1: f32 = 1.570_312_5;
+    const PIO2_2: f32 = 4.837_512_969_970_703e-4;
+    const PIO2_3: f32 = 7.549_789_948_768_648e-8;
+    let qf = libm_round(x * TWO_OVER_PI);
+    let r = ((x - qf * PIO2_1) - qf * PIO2_2) - qf * PIO2_3;
+    let z = r * r;
+    let s = r + r * z * (-1.666_665_461_1e-1 + z * (8.332_160_873_6e-3 + z * -1.951_529_589_1e-4));
+    let c = 1.0 - 0.5 * z
+        + z * z * (4.166_664_568_298_827e-2 + z * (-1.388_731_625_493_765e-3 + z * 2.443_315_711_809_948e-5));
+    match (qf as i32) & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// Round half away from zero without `std` (exact for `|x| < 2^23`).
+#[inline]
+fn libm_round(x: f32) -> f32 {
+    let t = (x.abs() + 0.5) as i32 as f32;
+    if x < 0.0 {
+        -t
+    } else {
+        t
+    }
+}
+
+/// `true` when every entry of the slice is finite (a flat loop without early
+/// exit: cheaper than an iterator chain for the small fixed sizes here).
+#[inline]
+pub(crate) fn finite<T: Real>(values: &[T]) -> bool {
+    values.iter().fold(true, |ok, v| ok & v.is_finite())
+}
+
+/// `true` when every value is finite.
 pub(crate) fn all_finite<T: Real>(values: impl IntoIterator<Item = T>) -> bool {
     values.into_iter().all(|v| v.is_finite())
 }
@@ -44,4 +137,43 @@ pub(crate) fn all_finite<T: Real>(values: impl IntoIterator<Item = T>) -> bool {
 #[inline]
 pub(crate) fn greater<T: Real>(a: T, b: T) -> bool {
     a > b
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn single_precision_sin_cos_matches_f64() {
+        let mut worst = 0.0f64;
+        let mut x = -100.0f32;
+        while x < 100.0 {
+            let (s, c) = sin_cos_f32(x);
+            let xd = x as f64;
+            worst = worst.max((s as f64 - xd.sin()).abs()).max((c as f64 - xd.cos()).abs());
+            x += 0.000_37;
+        }
+        assert!(worst < 3.0e-7, "worst {worst}");
+        for big in [1.0e4f32, -3.0e5, 1.0e30] {
+            let (s, c) = sin_cos_f32(big);
+            assert!(
+                (s as f64 - (big as f64).sin()).abs() < 1e-6 && (c as f64 - (big as f64).cos()).abs() < 1e-6
+            );
+        }
+        let mut worst_sqrt = 0.0f64;
+        let mut v = 1.0e-40f32;
+        while v < 1.0e38 {
+            let exact = (v as f64).sqrt();
+            worst_sqrt = worst_sqrt.max(((sqrt_f32(v) as f64) - exact).abs() / exact);
+            v *= 1.0137;
+        }
+        assert!(worst_sqrt < 1.2e-7, "sqrt relative error {worst_sqrt}");
+        assert_eq!(sqrt_f32(0.0), 0.0);
+        assert_eq!(sqrt_f32(4.0), 2.0);
+        assert_eq!(sqrt_f32(f32::INFINITY), f32::INFINITY);
+        assert!(sqrt_f32(-1.0).is_nan() && sqrt_f32(f32::NAN).is_nan());
+        let (s, c) = sin_cos_f32(f32::NAN);
+        assert!(s.is_nan() && c.is_nan());
+        assert!(sin_cos_f32(f32::INFINITY).0.is_nan());
+    }
 }

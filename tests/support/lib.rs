@@ -158,3 +158,18 @@ pub fn stationarity_residual<const N: usize, const M: usize>(
     let eq = (w * t - f).norm() / (1.0 + f.norm());
     (stationarity * half, eq)
 }
+
+/// [`clip_polygon`] with the smallest square (from 10 upwards, by factors of
+/// 10) that the polygon does not touch, so that the square neither cuts the
+/// polygon nor costs precision.
+pub fn clip_polygon_auto(rows: &[[f64; 2]], lo: &[f64], hi: &[f64]) -> ClippedPolygon {
+    let mut radius = 10.0;
+    loop {
+        let poly = clip_polygon(rows, lo, hi, radius);
+        let touches = poly.vertices.iter().any(|p| p[0].abs().max(p[1].abs()) >= 0.999 * radius);
+        if !touches || radius >= 1e15 {
+            return poly;
+        }
+        radius *= 10.0;
+    }
+}

@@ -1,17 +1,19 @@
 //! `cargo xtask`: the project's two commands (after the `xtask` pattern of
 //! RTIC and the knurling app-template: plain Rust instead of shell scripts).
 //!
-//! * `cargo xtask run`: sets up what it needs, then runs the demo.
-//! * `cargo xtask test`: sets up what it needs, runs every check and test,
-//!   and prints `N passed, N failed` last (exit code 1 if any failed).
+//! * `cargo xtask run`: sets up what it needs (Cortex-M target, QEMU, the
+//!   QEMU runner), then runs the firmware in QEMU on its demo trajectory.
+//! * `cargo xtask test`: the same set-up, then every check and test (format,
+//!   lints, the `no_std` build, the host tests, the firmware under QEMU), and
+//!   `N passed, N failed` last (exit code 1 if any failed).
 
 mod checks;
+mod firmware;
 
-use std::process::{exit, Command};
+use std::process::exit;
 
 use checks::{cargo_test, check, Tally};
-
-const TARGET: &str = "thumbv7em-none-eabihf";
+use firmware::TARGET;
 
 fn main() {
     let task = std::env::args().nth(1).unwrap_or_default();
@@ -30,38 +32,41 @@ fn main() {
     }
 }
 
-/// Installs the Cortex-M target (idempotent; `rust-toolchain.toml` alone does
-/// not bring it where rustup's auto-install is off).
-fn setup_target() {
-    let ok =
-        Command::new("rustup").args(["target", "add", TARGET]).status().map(|s| s.success()).unwrap_or(false);
-    if !ok {
-        eprintln!("warning: `rustup target add {TARGET}` failed");
+/// The firmware in QEMU on its demo trajectory.
+fn run() {
+    if let Err(e) = firmware::setup().and_then(|()| firmware::run_demo()) {
+        eprintln!("error: {e}");
+        exit(1);
     }
 }
 
-fn run() {
-    setup_target();
-    let status =
-        Command::new(env!("CARGO")).args(["run", "--release", "--quiet", "--example", "host_demo"]).status();
-    exit(status.map(|s| s.code().unwrap_or(1)).unwrap_or(1));
-}
-
 fn test() {
-    setup_target();
     let mut tally = Tally::default();
-    tally.add(check("format", env!("CARGO"), &["fmt", "--all", "--", "--check"]));
+    if let Err(e) = firmware::setup() {
+        println!("==> set-up: FAILED ({e})");
+        tally.add(Tally { passed: 0, failed: 1 });
+    }
+    let cargo = env!("CARGO");
+    tally.add(check("format", cargo, &["fmt", "--all", "--", "--check"]));
+    tally.add(check("clippy (host crates)", cargo, &["clippy", "--all-targets", "--", "-D", "warnings"]));
     tally.add(check(
-        "clippy (host crates)",
-        env!("CARGO"),
-        &["clippy", "--all-targets", "--", "-D", "warnings"],
+        "clippy (firmware, thumbv7em-none-eabihf)",
+        cargo,
+        &["clippy", "-p", "firmware", "--target", TARGET, "--", "-D", "warnings"],
     ));
     tally.add(check(
         "tension-core builds for the board (no_std)",
-        env!("CARGO"),
+        cargo,
         &["build", "--release", "-p", "tension-core", "--target", TARGET],
     ));
     tally.add(cargo_test(&[]));
+    match firmware::test() {
+        Ok((passed, failed)) => tally.add(Tally { passed, failed }),
+        Err(e) => {
+            println!("==> firmware: FAILED ({e})");
+            tally.add(Tally { passed: 0, failed: 1 });
+        }
+    }
     println!("{} passed, {} failed", tally.passed, tally.failed);
     exit(if tally.failed == 0 { 0 } else { 1 });
 }
