@@ -86,6 +86,7 @@ pub fn sqrt_f32(x: f32) -> f32 {
 /// polynomials of the Cephes library's `sinf`/`cosf` on `[-pi/4, pi/4]`
 /// (error below 2 ulp there). Arguments beyond `|x| = 8192` (never a pose
 /// angle) go to libm. NaN in, NaN out; nothing panics.
+#[allow(clippy::excessive_precision)] // the coefficients as published
 pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     use nalgebra::ComplexField;
     if x.is_nan() || x.abs() > 8192.0 {
