@@ -218,16 +218,21 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                 }
                 s.sqrt_native()
             };
-            if on_sigma && reduced_grad_norm * half_range <= self.settings.tolerance {
-                let t_final = t;
-                if !finite(t_final.as_slice()) {
+            let converged = |t: SVector<T, M>| {
+                if !finite(t.as_slice()) {
                     return Err(Error::NonFinite);
                 }
-                return Ok(Solution {
-                    tensions: t_final,
-                    robustness: robustness(&t_final, limits),
+                Ok(Solution {
+                    tensions: t,
+                    robustness: robustness(&t, limits),
                     diagnostics: Diagnostics { iterations: iteration, warm_start, ..Diagnostics::empty() },
-                });
+                })
+            };
+            // Relative to the gradient's own size where that exceeds 1: close
+            // to a limit its terms are large, and so is their rounding.
+            let grad_size = (grad.norm_squared().sqrt_native() * half_range).max(T::one());
+            if on_sigma && reduced_grad_norm * half_range <= self.settings.tolerance * grad_size {
+                return converged(t);
             }
             if iteration == self.settings.max_iterations {
                 break;
@@ -303,7 +308,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
             let phi0 = self.barrier(&t, limits);
             let small_decrement = -slope < T::lit(1.0e-3);
             let mut accepted = false;
-            for _ in 0..60 {
+            for _ in 0..24 {
                 let trial = t + step * s;
                 if self.in_domain(&trial, limits)
                     && (!on_sigma

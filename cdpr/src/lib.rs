@@ -1,0 +1,23 @@
+//! # cdpr
+//!
+//! The host command-line tool of the project (`cdpr`), as a library so that
+//! its logic is testable: robot files and pose tables read with errors that
+//! name the file, line and column; tensions along pose tables (`solve`) and
+//! smooth trajectories (`trajectory`, `compare`); the wrench-feasible
+//! workspace (`workspace`). Everything follows `SPEC.md` (poses, robot
+//! files, CSV tables, method names) and uses `tension-core` in `f64`.
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod error;
+pub mod output;
+pub mod plot;
+pub mod profiles;
+pub mod robot;
+pub mod solve;
+pub mod table;
+pub mod trajectory;
+pub mod workspace;
+
+pub use error::{one_line, CliError};

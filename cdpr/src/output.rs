@@ -1,0 +1,64 @@
+//! Output files written whole or not at all: into a temporary file in the
+//! same directory, renamed over the target only once everything is written.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crate::CliError;
+
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    dir.join(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+/// Writes `path` through `body`, atomically (temp file + rename); on any
+/// error the temporary file is removed and `path` is left as it was.
+pub fn write_atomic(
+    path: &Path,
+    body: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), CliError> {
+    let tmp = temp_path(path);
+    let result = (|| {
+        let mut w = BufWriter::new(File::create(&tmp)?);
+        body(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        CliError::io(path, &e)
+    })
+}
+
+/// Writes bytes atomically.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    write_atomic(path, |w| w.write_all(bytes))
+}
+
+/// Creates the output directory (and its parents).
+pub fn ensure_dir(dir: &Path) -> Result<(), CliError> {
+    std::fs::create_dir_all(dir).map_err(|e| CliError::io(dir, &e))
+}
+
+/// Formats a number for the CSV tables: the shortest text that reads back
+/// as the same `f64`.
+pub fn num(x: f64) -> String {
+    format!("{x}")
+}
+
+/// Formats a sample time: at most nine decimals, trailing zeros dropped.
+pub fn time(t: f64) -> String {
+    let s = format!("{t:.9}");
+    let s = s.trim_end_matches('0');
+    let s = s.trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
+}

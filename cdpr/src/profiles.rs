@@ -1,0 +1,518 @@
+//! `cdpr trajectory` and `cdpr compare`: tensions along a smooth trajectory
+//! through timed waypoints, with the dynamic (d'Alembert) wrench.
+
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use tension_core::{Error, Method};
+
+use crate::output::{ensure_dir, num, time as fmt_time, write_atomic, write_bytes};
+use crate::plot::{line_plot, LinePlot, Series, PALETTE};
+use crate::robot::{load_robot, LoadedRobot, Model, Query};
+use crate::solve::{count_failure, tension_header};
+use crate::table::{pose_columns, wrench_columns};
+use crate::trajectory::{Sample, Waypoints};
+use crate::CliError;
+
+/// Most samples a run may have (memory and time stay bounded).
+pub const MAX_SAMPLES: usize = 2_000_000;
+
+/// Arguments of `cdpr trajectory`.
+#[derive(Debug, Clone)]
+pub struct TrajectoryArgs {
+    /// Robot file.
+    pub robot: PathBuf,
+    /// Waypoint table.
+    pub waypoints: PathBuf,
+    /// Method names (empty: every method that applies).
+    pub methods: Vec<String>,
+    /// Sample rate, Hz.
+    pub rate: f64,
+    /// Output directory.
+    pub out: PathBuf,
+}
+
+/// The tensions of one method along the samples.
+#[derive(Debug, Clone)]
+pub struct MethodRun {
+    /// The method.
+    pub method: Method,
+    /// Tensions, `m` per sample (meaningless where the result is an error).
+    pub tensions: Vec<f64>,
+    /// Robustness per sample, or why no tension was found.
+    pub results: Vec<Result<f64, Error>>,
+    /// Time of every solve, s.
+    pub seconds: Vec<f64>,
+}
+
+/// Statistics of a [`MethodRun`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunStats {
+    /// Samples.
+    pub samples: usize,
+    /// Samples solved.
+    pub ok: usize,
+    /// Failures per status.
+    pub failures: Vec<(&'static str, usize)>,
+    /// Largest change of a tension between consecutive solved samples, N,
+    /// and the time it happened.
+    pub largest_step: Option<(f64, f64)>,
+    /// Smallest robustness and its time.
+    pub min_robustness: Option<(f64, f64)>,
+    /// Mean robustness over the solved samples.
+    pub mean_robustness: Option<f64>,
+    /// Median and largest time per solve, s.
+    pub solve_time: (f64, f64),
+    /// Time intervals with no tension (first and last failing sample).
+    pub failed_intervals: Vec<(f64, f64)>,
+}
+
+impl MethodRun {
+    /// Statistics against the sample times.
+    pub fn stats(&self, times: &[f64], m: usize) -> RunStats {
+        let mut failures = vec![];
+        let mut largest_step: Option<(f64, f64)> = None;
+        let mut min_rob: Option<(f64, f64)> = None;
+        let mut sum_rob = 0.0;
+        let mut ok = 0;
+        let mut intervals: Vec<(f64, f64)> = vec![];
+        let mut in_gap = false;
+        for (k, r) in self.results.iter().enumerate() {
+            match r {
+                Ok(rob) => {
+                    ok += 1;
+                    sum_rob += rob;
+                    if min_rob.is_none_or(|(v, _)| *rob < v) {
+                        min_rob = Some((*rob, times[k]));
+                    }
+                    if k > 0 && self.results[k - 1].is_ok() {
+                        let step = (0..m)
+                            .map(|i| (self.tensions[k * m + i] - self.tensions[(k - 1) * m + i]).abs())
+                            .fold(0.0, f64::max);
+                        if largest_step.is_none_or(|(v, _)| step > v) {
+                            largest_step = Some((step, times[k]));
+                        }
+                    }
+                    in_gap = false;
+                }
+                Err(e) => {
+                    count_failure(&mut failures, e.status());
+                    if in_gap {
+                        intervals.last_mut().expect("open gap").1 = times[k];
+                    } else {
+                        intervals.push((times[k], times[k]));
+                        in_gap = true;
+                    }
+                }
+            }
+        }
+        let mut sorted = self.seconds.clone();
+        sorted.sort_by(f64::total_cmp);
+        let solve_time =
+            if sorted.is_empty() { (0.0, 0.0) } else { (sorted[sorted.len() / 2], sorted[sorted.len() - 1]) };
+        RunStats {
+            samples: self.results.len(),
+            ok,
+            failures,
+            largest_step,
+            min_robustness: min_rob,
+            mean_robustness: (ok > 0).then(|| sum_rob / ok as f64),
+            solve_time,
+            failed_intervals: intervals,
+        }
+    }
+}
+
+/// Samples the trajectory, refusing absurd sample counts.
+pub fn sample_trajectory(
+    waypoints: &Waypoints,
+    rate: f64,
+    path: &Path,
+) -> Result<(Vec<f64>, Vec<Sample>), CliError> {
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(CliError::input(format!(
+            "--rate {rate}: the sample rate must be a positive number of hertz"
+        )));
+    }
+    let count = (waypoints.end() - waypoints.start()) * rate;
+    if count > MAX_SAMPLES as f64 {
+        return Err(CliError::at(
+            path,
+            None,
+            None,
+            &format!(
+                "{:.0} s at {rate} Hz is more than {MAX_SAMPLES} samples; lower --rate",
+                waypoints.end() - waypoints.start()
+            ),
+        ));
+    }
+    let times = waypoints.sample_times(rate);
+    let samples = times.iter().map(|&t| waypoints.sample(t)).collect();
+    Ok((times, samples))
+}
+
+fn query(s: &Sample) -> Query<'_> {
+    Query { pose: &s.pose, extra: s.extra.as_deref(), motion: Some((&s.velocity, &s.acceleration)) }
+}
+
+/// Solves every sample with every method, interleaved (sample by sample,
+/// as a controller would, so that timings see the same machine state).
+pub fn solve_samples(model: &dyn Model, methods: &[Method], samples: &[Sample]) -> Vec<MethodRun> {
+    let m = model.cables();
+    let mut solvers: Vec<_> = methods.iter().map(|&me| model.solver(me)).collect();
+    let mut runs: Vec<MethodRun> = methods
+        .iter()
+        .map(|&method| MethodRun {
+            method,
+            tensions: vec![0.0; samples.len() * m],
+            results: Vec::with_capacity(samples.len()),
+            seconds: Vec::with_capacity(samples.len()),
+        })
+        .collect();
+    for (k, s) in samples.iter().enumerate() {
+        let q = query(s);
+        for (solver, run) in solvers.iter_mut().zip(runs.iter_mut()) {
+            let out = &mut run.tensions[k * m..(k + 1) * m];
+            let start = Instant::now();
+            let r = solver.solve(&q, out);
+            run.seconds.push(start.elapsed().as_secs_f64());
+            run.results.push(r);
+        }
+    }
+    runs
+}
+
+/// What `cdpr trajectory` wrote.
+#[derive(Debug, Clone)]
+pub struct TrajectoryReport {
+    /// The summary text (also in `summary.txt`).
+    pub summary: String,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+fn stats_text(s: &RunStats) -> String {
+    let mut t = String::new();
+    let _ = writeln!(t, "  samples solved:        {} of {}", s.ok, s.samples);
+    match s.largest_step {
+        Some((v, at)) => {
+            let _ = writeln!(
+                t,
+                "  largest step:          {v:.6} N (between consecutive samples, at t = {} s)",
+                fmt_time(at)
+            );
+        }
+        None => {
+            let _ = writeln!(t, "  largest step:          -");
+        }
+    }
+    match s.min_robustness {
+        Some((v, at)) => {
+            let _ = writeln!(
+                t,
+                "  smallest robustness:   {v:.6} N (at t = {} s); mean {:.6} N",
+                fmt_time(at),
+                s.mean_robustness.unwrap_or(f64::NAN)
+            );
+        }
+        None => {
+            let _ = writeln!(t, "  smallest robustness:   -");
+        }
+    }
+    let infeasible: usize = s.failures.iter().map(|(_, n)| n).sum();
+    let detail: Vec<String> = s.failures.iter().map(|(st, n)| format!("{n} {st}")).collect();
+    let _ = writeln!(
+        t,
+        "  samples without tension: {infeasible}{}",
+        if detail.is_empty() { String::new() } else { format!(" ({})", detail.join(", ")) }
+    );
+    for (a, b) in s.failed_intervals.iter().take(10) {
+        let _ = writeln!(t, "    from t = {} s to t = {} s", fmt_time(*a), fmt_time(*b));
+    }
+    if s.failed_intervals.len() > 10 {
+        let _ = writeln!(t, "    ... {} more intervals", s.failed_intervals.len() - 10);
+    }
+    t
+}
+
+/// Runs `cdpr trajectory`.
+pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliError> {
+    let robot = load_robot(&args.robot)?;
+    let methods = robot.method_list(&args.methods)?;
+    let waypoints = Waypoints::read(&args.waypoints, robot.kind())?;
+    let (times, samples) = sample_trajectory(&waypoints, args.rate, &args.waypoints)?;
+    let model = robot.model()?;
+    let m = model.cables();
+    let runs = solve_samples(model.as_ref(), &methods, &samples);
+
+    ensure_dir(&args.out)?;
+    let mut files = vec![];
+    let name = &robot.file.name;
+    let t_min = model.t_min();
+    let t_max = model.t_max();
+    let mut hlines: Vec<(f64, String)> = vec![];
+    for (v, label) in t_min.iter().map(|v| (*v, "t_min")).chain(t_max.iter().map(|v| (*v, "t_max"))) {
+        if !hlines.iter().any(|(w, _)| *w == v) {
+            hlines.push((v, format!("{label} = {} N", num(v))));
+        }
+    }
+
+    // The sampled trajectory, a SPEC pose table.
+    let pose_path = args.out.join("poses.csv");
+    write_atomic(&pose_path, |w: &mut dyn Write| {
+        let mut cols = vec!["time"];
+        cols.extend(pose_columns(robot.kind()));
+        if waypoints.extras.is_some() {
+            cols.extend(wrench_columns(robot.kind()));
+        }
+        writeln!(w, "{}", cols.join(","))?;
+        for s in &samples {
+            let mut line = fmt_time(s.time);
+            for v in s.pose.iter().chain(s.extra.iter().flatten()) {
+                line.push(',');
+                line.push_str(&num(*v));
+            }
+            writeln!(w, "{line}")?;
+        }
+        Ok(())
+    })?;
+    files.push(pose_path);
+
+    let mut summary = format!(
+        "robot: {name} ({}, {} DOF, {m} cables) from {}\nwaypoints: {} ({} waypoints, t = {} s to {} s)\nsamples: {} at {} Hz; time law s(u) = 35u^4 - 84u^5 + 70u^6 - 20u^7 per segment, dynamic wrench\n",
+        robot.kind().name(),
+        robot.dof(),
+        robot.path.display(),
+        args.waypoints.display(),
+        waypoints.times.len(),
+        fmt_time(waypoints.start()),
+        fmt_time(waypoints.end()),
+        samples.len(),
+        args.rate,
+    );
+    for run in &runs {
+        let mname = run.method.name();
+        let stats = run.stats(&times, m);
+        let _ = write!(summary, "\n{mname}\n{}", stats_text(&stats));
+
+        let csv = args.out.join(format!("tensions-{mname}.csv"));
+        write_tensions(&csv, &times, run, m)?;
+        files.push(csv);
+
+        let plot = LinePlot {
+            title: format!("{name}: {mname}"),
+            x_label: "time [s]".into(),
+            y_label: "tension [N]".into(),
+            series: (0..m)
+                .map(|i| {
+                    Series::from_samples(
+                        format!("t{}", i + 1),
+                        PALETTE[i % PALETTE.len()],
+                        times
+                            .iter()
+                            .enumerate()
+                            .map(|(k, &t)| (t, run.results[k].is_ok().then(|| run.tensions[k * m + i]))),
+                    )
+                })
+                .collect(),
+            hlines: hlines.clone(),
+            bands: bands(&stats.failed_intervals, &times),
+            band_label: "no tension".into(),
+            include_zero: false,
+        };
+        let (png, svg) = line_plot(&plot, (1100, 600))?;
+        let stem = args.out.join(format!("tensions-{mname}"));
+        write_bytes(&stem.with_extension("png"), &png)?;
+        write_bytes(&stem.with_extension("svg"), svg.as_bytes())?;
+        files.push(stem.with_extension("png"));
+        files.push(stem.with_extension("svg"));
+    }
+
+    // Robustness over time, every method.
+    let rob_csv = args.out.join("robustness.csv");
+    write_atomic(&rob_csv, |w: &mut dyn Write| {
+        let mut header = vec!["time".to_string()];
+        header.extend(runs.iter().map(|r| r.method.name().to_string()));
+        writeln!(w, "{}", header.join(","))?;
+        for (k, t) in times.iter().enumerate() {
+            let mut line = fmt_time(*t);
+            for r in &runs {
+                line.push(',');
+                if let Ok(v) = r.results[k] {
+                    line.push_str(&num(v));
+                }
+            }
+            writeln!(w, "{line}")?;
+        }
+        Ok(())
+    })?;
+    files.push(rob_csv);
+    let plot = LinePlot {
+        title: format!("{name}: robustness (smallest distance to a limit)"),
+        x_label: "time [s]".into(),
+        y_label: "robustness [N]".into(),
+        series: runs
+            .iter()
+            .enumerate()
+            .map(|(j, r)| {
+                let mut s = Series::from_samples(
+                    r.method.name(),
+                    PALETTE[j % PALETTE.len()],
+                    times.iter().zip(&r.results).map(|(&t, res)| (t, res.ok())),
+                );
+                // Wider lines first, so that methods that agree stay visible.
+                s.width = (runs.len() - j) as u32 + 1;
+                s
+            })
+            .collect(),
+        include_zero: true,
+        ..LinePlot::default()
+    };
+    let (png, svg) = line_plot(&plot, (1100, 600))?;
+    let stem = args.out.join("robustness");
+    write_bytes(&stem.with_extension("png"), &png)?;
+    write_bytes(&stem.with_extension("svg"), svg.as_bytes())?;
+    files.push(stem.with_extension("png"));
+    files.push(stem.with_extension("svg"));
+
+    let sum_path = args.out.join("summary.txt");
+    write_bytes(&sum_path, summary.as_bytes())?;
+    files.push(sum_path);
+    Ok(TrajectoryReport { summary, files })
+}
+
+/// Shaded intervals for the failed samples, widened by half a sample.
+fn bands(intervals: &[(f64, f64)], times: &[f64]) -> Vec<(f64, f64)> {
+    let half = if times.len() > 1 { (times[1] - times[0]) / 2.0 } else { 0.0 };
+    intervals.iter().map(|&(a, b)| (a - half, b + half)).collect()
+}
+
+fn write_tensions(path: &Path, times: &[f64], run: &MethodRun, m: usize) -> Result<(), CliError> {
+    write_atomic(path, |w: &mut dyn Write| {
+        writeln!(w, "{}", tension_header(true, m))?;
+        for (k, t) in times.iter().enumerate() {
+            let mut line = fmt_time(*t);
+            line.push(',');
+            match run.results[k] {
+                Ok(_) => {
+                    for v in &run.tensions[k * m..(k + 1) * m] {
+                        line.push_str(&num(*v));
+                        line.push(',');
+                    }
+                    line.push_str("ok");
+                }
+                Err(e) => {
+                    line.push_str(&",".repeat(m));
+                    line.push_str(e.status());
+                }
+            }
+            writeln!(w, "{line}")?;
+        }
+        Ok(())
+    })
+}
+
+/// Arguments of `cdpr compare`.
+#[derive(Debug, Clone)]
+pub struct CompareArgs {
+    /// Robot file.
+    pub robot: PathBuf,
+    /// Waypoint table.
+    pub waypoints: PathBuf,
+    /// Sample rate, Hz.
+    pub rate: f64,
+    /// CSV to write.
+    pub out: PathBuf,
+}
+
+/// What `cdpr compare` found: per method, its statistics.
+#[derive(Debug, Clone)]
+pub struct CompareReport {
+    /// The table printed to stdout.
+    pub table: String,
+    /// Methods and their statistics.
+    pub rows: Vec<(Method, RunStats)>,
+}
+
+/// Runs `cdpr compare`.
+pub fn run_compare(args: &CompareArgs) -> Result<CompareReport, CliError> {
+    let robot: LoadedRobot = load_robot(&args.robot)?;
+    let waypoints = Waypoints::read(&args.waypoints, robot.kind())?;
+    let (times, samples) = sample_trajectory(&waypoints, args.rate, &args.waypoints)?;
+    let model = robot.model()?;
+    let m = model.cables();
+    let methods = robot.methods();
+    let runs = solve_samples(model.as_ref(), &methods, &samples);
+    let rows: Vec<(Method, RunStats)> = runs.iter().map(|r| (r.method, r.stats(&times, m))).collect();
+
+    let mut table = format!(
+        "{}: {} samples at {} Hz from {}\n\n",
+        robot.file.name,
+        samples.len(),
+        args.rate,
+        args.waypoints.display()
+    );
+    let _ = writeln!(
+        table,
+        "{:<22} {:>9} {:>9} {:>11} {:>11} {:>13} {:>11} {:>11}",
+        "method", "solved", "failed", "rob. min", "rob. mean", "largest step", "median", "max"
+    );
+    let _ = writeln!(
+        table,
+        "{:<22} {:>9} {:>9} {:>11} {:>11} {:>13} {:>11} {:>11}",
+        "", "", "", "[N]", "[N]", "[N]", "[us]", "[us]"
+    );
+    let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.4}"));
+    for (method, s) in &rows {
+        let _ = writeln!(
+            table,
+            "{:<22} {:>9} {:>9} {:>11} {:>11} {:>13} {:>11.2} {:>11.2}",
+            method.name(),
+            s.ok,
+            s.samples - s.ok,
+            opt(s.min_robustness.map(|x| x.0)),
+            opt(s.mean_robustness),
+            opt(s.largest_step.map(|x| x.0)),
+            s.solve_time.0 * 1e6,
+            s.solve_time.1 * 1e6
+        );
+    }
+    for method in Method::ALL {
+        if !methods.contains(&method) {
+            let _ = writeln!(
+                table,
+                "{:<22} not applicable: needs m = n + 2 cables, the robot has n = {}, m = {}",
+                method.name(),
+                robot.dof(),
+                m
+            );
+        }
+    }
+
+    write_atomic(&args.out, |w: &mut dyn Write| {
+        writeln!(
+            w,
+            "method,samples,solved,failed,robustness_min,robustness_mean,largest_step,median_solve_us,max_solve_us"
+        )?;
+        let opt = |v: Option<f64>| v.map_or(String::new(), num);
+        for (method, s) in &rows {
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{},{},{}",
+                method.name(),
+                s.samples,
+                s.ok,
+                s.samples - s.ok,
+                opt(s.min_robustness.map(|x| x.0)),
+                opt(s.mean_robustness),
+                opt(s.largest_step.map(|x| x.0)),
+                num(s.solve_time.0 * 1e6),
+                num(s.solve_time.1 * 1e6)
+            )?;
+        }
+        Ok(())
+    })?;
+    Ok(CompareReport { table, rows })
+}
