@@ -5,32 +5,13 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use cdpr_integration_tests::{analytic_centre_residual, shared_robot, stationarity_residual};
+use cdpr_integration_tests::{analytic_centre_residual, random_problem, shared_robot, stationarity_residual};
 use nalgebra::{DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
 use tension_core::{
     analytic_centre, barycenter, AnalyticCentre, BarrierWeights, ConvexConstraint, Error, Motion, Robot,
     TensionLimits, WarmStart,
 };
-
-fn problem<const N: usize, const M: usize>(
-) -> impl Strategy<Value = (SMatrix<f64, N, M>, SVector<f64, N>, TensionLimits<f64, M>)> {
-    (
-        prop::collection::vec(-1.0f64..1.0, N * M),
-        prop::collection::vec(0.0f64..1.0, M),
-        prop::collection::vec(-1.0f64..1.0, N),
-        prop_oneof![Just(0.0), 0.0f64..3.0],
-        0.0f64..20.0,
-        1.0f64..500.0,
-    )
-        .prop_map(|(entries, inside, offset, push, t_min, width)| {
-            let w = SMatrix::from_fn(|i, j| entries[i * M + j]);
-            let limits = TensionLimits::uniform(t_min, t_min + width).unwrap();
-            let t0 = SVector::<f64, M>::from_fn(|i, _| t_min + width * inside[i]);
-            let f = w * t0 + SVector::<f64, N>::from_fn(|i, _| offset[i] * push * width);
-            (w, f, limits)
-        })
-}
 
 /// Random problems: every answer satisfies Eq. 15 and the limits; a warm
 /// start from a nearby answer gives the same centre; failures are only
@@ -40,7 +21,7 @@ fn random_cases<const N: usize, const M: usize>(cases: u32) {
     let solved = AtomicUsize::new(0);
     let mut runner = TestRunner::new(ProptestConfig::with_cases(cases));
     runner
-        .run(&problem::<N, M>(), |(w, f, limits)| {
+        .run(&random_problem::<N, M>(3.0), |(w, f, limits)| {
             match analytic_centre(&w, &f, &limits, None) {
                 Ok(sol) => {
                     let t = sol.tensions;

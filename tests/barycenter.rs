@@ -2,7 +2,7 @@
 //! (Mikelsons et al. 2008) and against an independent polygon-clipping
 //! reference, on random wrench matrices of every shape with `M = N + 2`.
 
-use cdpr_integration_tests::{clip_polygon, clip_polygon_auto, reference_barycenter};
+use cdpr_integration_tests::{clip_polygon, clip_polygon_auto, random_problem, reference_barycenter};
 use nalgebra::{SMatrix, SVector, Vector2};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -71,31 +71,6 @@ fn compare<const N: usize, const M: usize>(
     }
 }
 
-fn matrix<const N: usize, const M: usize>(values: &[f64]) -> SMatrix<f64, N, M> {
-    SMatrix::from_fn(|i, j| values[i * M + j])
-}
-
-/// A random `N x M` matrix, a tension vector inside the box and a random
-/// offset of the wrench (feasible or not).
-fn problem<const N: usize, const M: usize>(
-) -> impl Strategy<Value = (SMatrix<f64, N, M>, SVector<f64, N>, TensionLimits<f64, M>)> {
-    (
-        prop::collection::vec(-1.0f64..1.0, N * M),
-        prop::collection::vec(0.0f64..1.0, M),
-        prop::collection::vec(-1.0f64..1.0, N),
-        prop_oneof![Just(0.0), 0.0f64..30.0],
-        0.0f64..20.0,
-        1.0f64..500.0,
-    )
-        .prop_map(|(entries, inside, offset, push, t_min, width)| {
-            let w = matrix::<N, M>(&entries);
-            let limits = TensionLimits::uniform(t_min, t_min + width).unwrap();
-            let t0 = SVector::<f64, M>::from_fn(|i, _| t_min + width * inside[i]);
-            let f = w * t0 + SVector::<f64, N>::from_fn(|i, _| offset[i] * push * width);
-            (w, f, limits)
-        })
-}
-
 /// Runs `cases` random problems through [`compare`] and checks that both the
 /// feasible and the infeasible branch were exercised.
 fn random_cases<const N: usize, const M: usize>(cases: u32) {
@@ -103,7 +78,7 @@ fn random_cases<const N: usize, const M: usize>(cases: u32) {
     let infeasible = AtomicUsize::new(0);
     let mut runner = TestRunner::new(ProptestConfig::with_cases(cases));
     runner
-        .run(&problem::<N, M>(), |(w, f, limits)| {
+        .run(&random_problem::<N, M>(30.0), |(w, f, limits)| {
             match compare(w, f, limits) {
                 true => feasible.fetch_add(1, Ordering::Relaxed),
                 false => infeasible.fetch_add(1, Ordering::Relaxed),

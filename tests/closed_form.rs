@@ -3,6 +3,7 @@
 //! and their claims: every answer is feasible, the improved form succeeds
 //! wherever the plain one does, `infeasible` only when the pose is.
 
+use cdpr_integration_tests::random_problem;
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use proptest::prelude::*;
 use tension_core::{barycenter, closed_form, improved_closed_form, Error, TensionLimits};
@@ -60,24 +61,6 @@ fn reference_improved<const N: usize, const M: usize>(
             }
         }
     }
-}
-
-fn problem<const N: usize, const M: usize>(
-) -> impl Strategy<Value = (SMatrix<f64, N, M>, SVector<f64, N>, f64, f64)> {
-    (
-        prop::collection::vec(-1.0f64..1.0, N * M),
-        prop::collection::vec(0.0f64..1.0, M),
-        prop::collection::vec(-1.0f64..1.0, N),
-        prop_oneof![Just(0.0), 0.0f64..2.0],
-        0.0f64..20.0,
-        1.0f64..500.0,
-    )
-        .prop_map(|(entries, inside, offset, push, lo, width)| {
-            let w = SMatrix::from_fn(|i, j| entries[i * M + j]);
-            let t0 = SVector::<f64, M>::from_fn(|i, _| lo + width * inside[i]);
-            let f = w * t0 + SVector::<f64, N>::from_fn(|i, _| offset[i] * push * width);
-            (w, f, lo, lo + width)
-        })
 }
 
 fn check<const N: usize, const M: usize>(
@@ -148,16 +131,16 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(500))]
 
     #[test]
-    fn closed_forms_6x8((w, f, lo, hi) in problem::<6, 8>()) { check(w, f, lo, hi)?; }
+    fn closed_forms_6x8((w, f, limits) in random_problem::<6, 8>(2.0)) { check(w, f, limits.min()[0], limits.max()[0])?; }
 
     #[test]
-    fn closed_forms_6x10((w, f, lo, hi) in problem::<6, 10>()) { check(w, f, lo, hi)?; }
+    fn closed_forms_6x10((w, f, limits) in random_problem::<6, 10>(2.0)) { check(w, f, limits.min()[0], limits.max()[0])?; }
 
     #[test]
-    fn closed_forms_3x5((w, f, lo, hi) in problem::<3, 5>()) { check(w, f, lo, hi)?; }
+    fn closed_forms_3x5((w, f, limits) in random_problem::<3, 5>(2.0)) { check(w, f, limits.min()[0], limits.max()[0])?; }
 
     #[test]
-    fn closed_forms_2x4((w, f, lo, hi) in problem::<2, 4>()) { check(w, f, lo, hi)?; }
+    fn closed_forms_2x4((w, f, limits) in random_problem::<2, 4>(2.0)) { check(w, f, limits.min()[0], limits.max()[0])?; }
 }
 
 #[test]

@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use proptest::prelude::*;
 use robot_file::RobotFile;
 use tension_core::{Real, Robot, TensionLimits};
 
@@ -172,4 +173,29 @@ pub fn clip_polygon_auto(rows: &[[f64; 2]], lo: &[f64], hi: &[f64]) -> ClippedPo
         }
         radius *= 10.0;
     }
+}
+
+/// Random problems for the property tests: an `N x M` wrench matrix with
+/// entries in `[-1, 1]`, uniform limits `t_min in [0, 20)`, width in
+/// `[1, 500)`, and `f = W t0 + push * width * offset` for a `t0` inside the
+/// box: feasible when `push` is 0 (half the cases), feasible or not when it
+/// is drawn from `[0, push_max)`.
+pub fn random_problem<const N: usize, const M: usize>(
+    push_max: f64,
+) -> impl Strategy<Value = (SMatrix<f64, N, M>, SVector<f64, N>, TensionLimits<f64, M>)> {
+    (
+        prop::collection::vec(-1.0f64..1.0, N * M),
+        prop::collection::vec(0.0f64..1.0, M),
+        prop::collection::vec(-1.0f64..1.0, N),
+        prop_oneof![Just(0.0), 0.0f64..push_max],
+        0.0f64..20.0,
+        1.0f64..500.0,
+    )
+        .prop_map(|(entries, inside, offset, push, t_min, width)| {
+            let w = SMatrix::from_fn(|i, j| entries[i * M + j]);
+            let limits = TensionLimits::uniform(t_min, t_min + width).unwrap();
+            let t0 = SVector::<f64, M>::from_fn(|i, _| t_min + width * inside[i]);
+            let f = w * t0 + SVector::<f64, N>::from_fn(|i, _| offset[i] * push * width);
+            (w, f, limits)
+        })
 }
