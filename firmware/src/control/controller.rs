@@ -3,7 +3,7 @@
 //! torques.
 
 use tension_core::nalgebra::{SMatrix, SVector};
-use tension_core::{Error, Method, Motion, RobotKind, Solution, TensionSolver, WarmStart};
+use tension_core::{Error, Method, Solution, TensionSolver, WarmStart};
 
 use super::robot::{suspended8, Suspended8, CABLES, DOF};
 use super::trajectory::Setpoint;
@@ -86,18 +86,6 @@ impl Controller {
             &Wrench::zeros(),
             Some((&setpoint.velocity, &setpoint.acceleration)),
         )
-    }
-
-    /// The wrench the cables must produce at the setpoint, `f = -w_e`
-    /// (gravity plus the d'Alembert wrench of the setpoint's motion).
-    pub fn required_wrench(&self, setpoint: &Setpoint) -> Result<Wrench, Error> {
-        let motion = Motion::from_pose_derivatives(
-            RobotKind::Spatial6,
-            &setpoint.pose,
-            &setpoint.velocity,
-            &setpoint.acceleration,
-        )?;
-        self.robot.required_wrench(&setpoint.pose, &Wrench::zeros(), Some(&motion))
     }
 
     /// The tension distribution (warm-started from the previous success).
