@@ -20,16 +20,9 @@
 
 use cdpr_integration_tests::{reference_barycenter, shared_robot};
 use nalgebra::{Matrix3, SVector, Vector3};
-use tension_core::{Error, Method, Motion, Platform, Robot, RobotKind, TensionLimits, TensionSolver};
-
-/// 7th-degree time law with zero velocity, acceleration and jerk at both
-/// ends (as Di Paola et al. 2024, Eq. 17): `s(u)`, `s'(u)`, `s''(u)`.
-fn time_law(u: f64) -> (f64, f64, f64) {
-    let s = u.powi(4) * (35.0 - 84.0 * u + 70.0 * u * u - 20.0 * u.powi(3));
-    let ds = u.powi(3) * (140.0 - 420.0 * u + 420.0 * u * u - 140.0 * u.powi(3));
-    let dds = u * u * (420.0 - 1680.0 * u + 2100.0 * u * u - 840.0 * u.powi(3));
-    (s, ds, dds)
-}
+use tension_core::{
+    trajectory::time_law, Error, Method, Motion, Platform, Robot, RobotKind, TensionLimits, TensionSolver,
+};
 
 struct Sample<const N: usize> {
     pose: SVector<f64, N>,

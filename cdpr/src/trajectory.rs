@@ -10,16 +10,7 @@ use tension_core::RobotKind;
 use crate::table::{read_poses, TimeColumn};
 use crate::CliError;
 
-/// `s(u)`, `s'(u)`, `s''(u)` of the 7th-degree time law, `u` in `[0, 1]`.
-pub fn time_law(u: f64) -> (f64, f64, f64) {
-    let u = u.clamp(0.0, 1.0);
-    let u2 = u * u;
-    let u3 = u2 * u;
-    let s = u2 * u2 * (35.0 - 84.0 * u + 70.0 * u2 - 20.0 * u3);
-    let ds = u3 * (140.0 - 420.0 * u + 420.0 * u2 - 140.0 * u3);
-    let dds = u2 * (420.0 - 1680.0 * u + 2100.0 * u2 - 840.0 * u3);
-    (s, ds, dds)
-}
+pub use tension_core::trajectory::time_law;
 
 /// Timed waypoints: pose (and optional extra wrench) at each time.
 #[derive(Debug, Clone, PartialEq)]
@@ -109,21 +100,6 @@ impl Waypoints {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn time_law_boundary_values_and_derivatives() {
-        assert_eq!(time_law(0.0), (0.0, 0.0, 0.0));
-        let (s, ds, dds) = time_law(1.0);
-        assert!((s - 1.0).abs() < 1e-12 && ds.abs() < 1e-12 && dds.abs() < 1e-12);
-        assert!((time_law(0.5).0 - 0.5).abs() < 1e-12);
-        let h = 1e-6;
-        for u in [0.1, 0.3, 0.7, 0.9] {
-            let num_ds = (time_law(u + h).0 - time_law(u - h).0) / (2.0 * h);
-            let num_dds = (time_law(u + h).1 - time_law(u - h).1) / (2.0 * h);
-            assert!((num_ds - time_law(u).1).abs() < 1e-6);
-            assert!((num_dds - time_law(u).2).abs() < 1e-5);
-        }
-    }
 
     #[test]
     fn samples_rest_at_waypoints() {

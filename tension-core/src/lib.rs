@@ -19,7 +19,9 @@
 //! * [`analytic_centre`]: Di Paola et al. 2024, Newton's method, any redundancy;
 //! * [`closed_form`] and [`improved_closed_form`]: Pott et al. 2009, Pott 2013.
 //!
-//! [`TensionSolver`] bundles them behind one call with the warm-start state.
+//! [`TensionSolver`] bundles them behind one call with the warm-start state;
+//! [`trajectory::time_law`] is the point-to-point time law the tools and tests
+//! move along.
 
 #![no_std]
 #![forbid(unsafe_code)]
@@ -36,6 +38,7 @@ pub mod polygon;
 mod scalar;
 mod solution;
 mod solver;
+pub mod trajectory;
 
 pub use analytic_centre::{
     analytic_centre, AnalyticCentre, AnalyticCentreSettings, BarrierWeights, ConvexConstraint,
