@@ -161,14 +161,15 @@ pub fn stationarity_residual<const N: usize, const M: usize>(
 }
 
 /// [`clip_polygon`] with the smallest square (from 10 upwards, by factors of
-/// 10) that the polygon does not touch, so that the square neither cuts the
-/// polygon nor costs precision.
+/// 10) that holds the polygon without touching it, so that the square
+/// neither cuts the polygon nor costs precision. An empty result is only
+/// final at the largest square: a small one may miss a polygon far away.
 pub fn clip_polygon_auto(rows: &[[f64; 2]], lo: &[f64], hi: &[f64]) -> ClippedPolygon {
     let mut radius = 10.0;
     loop {
         let poly = clip_polygon(rows, lo, hi, radius);
         let touches = poly.vertices.iter().any(|p| p[0].abs().max(p[1].abs()) >= 0.999 * radius);
-        if !touches || radius >= 1e15 {
+        if (!poly.vertices.is_empty() && !touches) || radius >= 1e15 {
             return poly;
         }
         radius *= 10.0;
