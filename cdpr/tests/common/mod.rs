@@ -4,6 +4,7 @@
 
 #![allow(dead_code)]
 
+use cdpr_integration_tests::clip_polygon_auto;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -106,8 +107,8 @@ pub fn listing(dir: &Path) -> Vec<String> {
 /// Barycenter of the feasible tension polygon of a planar point mass with
 /// four cables, computed independently: null space from the 2x2 block
 /// `W = [A | B]` (`n = [-A^-1 B z; z]`), the polygon by clipping a large
-/// square with the eight half-planes (Sutherland-Hodgman), its centroid by
-/// the shoelace formula, mapped back to tensions. `None` when empty.
+/// square with the eight half-planes (Sutherland-Hodgman, the workspace's
+/// `clip_polygon_auto`), its centroid, mapped back to tensions. `None` when empty.
 pub fn polygon_barycenter_2x4(
     anchors: &[[f64; 2]; 4],
     point: [f64; 2],
@@ -134,48 +135,16 @@ pub fn polygon_barycenter_2x4(
     let a3 = inv(u[3]);
     let n1 = [-a2[0], -a2[1], 1.0, 0.0];
     let n2 = [-a3[0], -a3[1], 0.0, 1.0];
-    // Half-planes a . lambda <= b.
-    let mut planes = vec![];
-    for k in 0..4 {
-        let a = [n1[k], n2[k]];
-        planes.push((a, t_max - particular[k]));
-        planes.push(([-a[0], -a[1]], particular[k] - t_min));
-    }
-    let big = 1e7;
-    let mut poly = vec![[-big, -big], [big, -big], [big, big], [-big, big]];
-    for (a, b) in planes {
-        let inside = |p: &[f64; 2]| a[0] * p[0] + a[1] * p[1] <= b;
-        let mut out = vec![];
-        for i in 0..poly.len() {
-            let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
-            let (pi, qi) = (inside(&p), inside(&q));
-            if pi {
-                out.push(p);
-            }
-            if pi != qi {
-                let fp = a[0] * p[0] + a[1] * p[1] - b;
-                let fq = a[0] * q[0] + a[1] * q[1] - b;
-                let s = fp / (fp - fq);
-                out.push([p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1])]);
-            }
-        }
-        poly = out;
-        if poly.is_empty() {
-            return None;
-        }
-    }
-    let (mut area, mut cx, mut cy) = (0.0, 0.0, 0.0);
-    for i in 0..poly.len() {
-        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
-        let c = p[0] * q[1] - q[0] * p[1];
-        area += c;
-        cx += (p[0] + q[0]) * c;
-        cy += (p[1] + q[1]) * c;
-    }
-    if area.abs() < 1e-12 {
+    // The polygon in (z1, z2) and its centroid: the workspace's
+    // Sutherland-Hodgman reference (`tests/support`).
+    let rows: Vec<[f64; 2]> = (0..4).map(|k| [n1[k], n2[k]]).collect();
+    let lo: Vec<f64> = (0..4).map(|k| t_min - particular[k]).collect();
+    let hi: Vec<f64> = (0..4).map(|k| t_max - particular[k]).collect();
+    let clipped = clip_polygon_auto(&rows, &lo, &hi);
+    if clipped.vertices.is_empty() || clipped.area.is_nan() || clipped.area < 1e-12 {
         return None;
     }
-    let lam = [cx / (3.0 * area), cy / (3.0 * area)];
+    let lam = clipped.centroid;
     let mut t = [0.0; 4];
     for k in 0..4 {
         t[k] = particular[k] + n1[k] * lam[0] + n2[k] * lam[1];
