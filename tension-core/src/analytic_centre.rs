@@ -11,7 +11,9 @@
 //! `(Z^T H Z) dl = -Z^T (grad + H W^+ (f - W t))`. The stopping rule is the
 //! norm of the optimality conditions (their Eq. 15): with the multipliers
 //! eliminated, `|Z^T grad phi|` (made dimensionless by the half-range of the
-//! limits) and `W t = f`.
+//! limits, and never below the rounding floor `64 eps |grad phi|`, the larger
+//! one close to a limit in `f32`) and `W t = f`. Each line search halves the
+//! step at most 24 times.
 //!
 //! **Start.** Newton needs a point strictly inside the domain (the box and
 //! `g_j < 0`), not necessarily on `W t = f` (their footnote 8). Tried in
@@ -206,7 +208,37 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
         for iteration in 0..=self.settings.max_iterations {
             let residual = f - w * t;
             let step_p = fact.min_norm_solution(&residual);
-            let grad = self.gradient(&t, limits);
+            // Gradient, H step_p and the reduced Hessian's constraint terms,
+            // each user callback evaluated once per iteration.
+            let diag = self.box_hessian(&t, limits);
+            let mut grad = self.box_gradient(&t, limits);
+            let mut h_step_p = diag.component_mul(&step_p);
+            hr.fill(T::zero());
+            for c in self.constraints {
+                let g = c.value(&t);
+                let dg = c.gradient(&t);
+                let d2g = c.hessian(&t);
+                let weight = c.weight();
+                grad += dg * (weight / -g);
+                h_step_p += dg * (weight * dg.dot(&step_p) / (g * g)) - d2g * step_p * (weight / g);
+                let mut zdg: SVector<T, M> = SVector::zeros();
+                for a in 0..r {
+                    for i in 0..M {
+                        zdg[a] += fact.null(i, a) * dg[i];
+                    }
+                }
+                for a in 0..r {
+                    for b in 0..=a {
+                        let mut zhz = T::zero();
+                        for i in 0..M {
+                            for j in 0..M {
+                                zhz += fact.null(i, a) * d2g[(i, j)] * fact.null(j, b);
+                            }
+                        }
+                        hr[(a, b)] += weight * (zdg[a] * zdg[b] / (g * g) - zhz / g);
+                    }
+                }
+            }
             let reduced_grad_norm = {
                 let mut s = T::zero();
                 for a in 0..r {
@@ -228,20 +260,17 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                     diagnostics: Diagnostics { iterations: iteration, warm_start, ..Diagnostics::empty() },
                 })
             };
-            // Relative to the gradient's own size where that exceeds 1: close
-            // to a limit its terms are large, and so is their rounding.
-            let grad_size = (grad.norm_squared().sqrt_native() * half_range).max(T::one());
-            if on_sigma && reduced_grad_norm * half_range <= self.settings.tolerance * grad_size {
+            // Never below the rounding floor of the gradient: close to a limit
+            // its terms are large, and so is their rounding (64 eps |grad|).
+            let rounding = T::lit(64.0) * T::eps() * grad.norm_squared().sqrt_native() * half_range;
+            if on_sigma && reduced_grad_norm * half_range <= self.settings.tolerance.max(rounding) {
                 return converged(t);
             }
             if iteration == self.settings.max_iterations {
                 break;
             }
             // Reduced Newton system (Z^T H Z) dl = -Z^T (grad + H step_p).
-            let h_step_p = self.hessian_times(&t, limits, &step_p);
-            hr.fill(T::zero());
             rhs.fill(T::zero());
-            let diag = self.box_hessian(&t, limits);
             for a in 0..r {
                 let mut s = T::zero();
                 for i in 0..M {
@@ -253,30 +282,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                     for i in 0..M {
                         s += fact.null(i, a) * diag[i] * fact.null(i, b);
                     }
-                    hr[(a, b)] = s;
-                }
-            }
-            for c in self.constraints {
-                let g = c.value(&t);
-                let dg = c.gradient(&t);
-                let d2g = c.hessian(&t);
-                let weight = c.weight();
-                let mut zdg: SVector<T, M> = SVector::zeros();
-                for a in 0..r {
-                    for i in 0..M {
-                        zdg[a] += fact.null(i, a) * dg[i];
-                    }
-                }
-                for a in 0..r {
-                    for b in 0..=a {
-                        let mut zhz = T::zero();
-                        for i in 0..M {
-                            for j in 0..M {
-                                zhz += fact.null(i, a) * d2g[(i, j)] * fact.null(j, b);
-                            }
-                        }
-                        hr[(a, b)] += weight * (zdg[a] * zdg[b] / (g * g) - zhz / g);
-                    }
+                    hr[(a, b)] += s;
                 }
             }
             for a in 0..r {
@@ -359,15 +365,12 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
         phi
     }
 
-    fn gradient(&self, t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> SVector<T, M> {
-        let mut grad = SVector::from_fn(|i, _| {
+    /// Gradient of the limits' barrier terms.
+    fn box_gradient(&self, t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> SVector<T, M> {
+        SVector::from_fn(|i, _| {
             -self.weights.lower[i] / (t[i] - limits.min()[i])
                 + self.weights.upper[i] / (limits.max()[i] - t[i])
-        });
-        for c in self.constraints {
-            grad += c.gradient(t) * (c.weight() / -c.value(t));
-        }
-        grad
+        })
     }
 
     fn box_hessian(&self, t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> SVector<T, M> {
@@ -376,21 +379,6 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
             let hi = limits.max()[i] - t[i];
             self.weights.lower[i] / (lo * lo) + self.weights.upper[i] / (hi * hi)
         })
-    }
-
-    fn hessian_times(
-        &self,
-        t: &SVector<T, M>,
-        limits: &TensionLimits<T, M>,
-        v: &SVector<T, M>,
-    ) -> SVector<T, M> {
-        let mut out = self.box_hessian(t, limits).component_mul(v);
-        for c in self.constraints {
-            let g = c.value(t);
-            let dg = c.gradient(t);
-            out += dg * (c.weight() * dg.dot(v) / (g * g)) - c.hessian(t) * v * (c.weight() / g);
-        }
-        out
     }
 }
 
