@@ -28,10 +28,25 @@ impl Tally {
 
 /// Runs a command that counts as one check (formatting, lint, a build).
 pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
-    println!("==> {name}: {program} {}", args.join(" "));
-    let ok = Command::new(program).args(args).status().map(|s| s.success()).unwrap_or(false);
-    println!("==> {name}: {}", if ok { "ok" } else { "FAILED" });
-    Tally::one(ok)
+    let result = run_step(program, args);
+    match &result {
+        Ok(()) => println!("==> {name}: ok"),
+        Err(e) => println!("==> {name}: FAILED ({e})"),
+    }
+    Tally::one(result.is_ok())
+}
+
+/// Runs a command with its output shown; an error saying what failed.
+pub fn run_step(program: &str, args: &[&str]) -> Result<(), String> {
+    let shown = if program == env!("CARGO") { "cargo" } else { program };
+    println!("==> {shown} {}", args.join(" "));
+    let status =
+        Command::new(program).args(args).status().map_err(|e| format!("cannot run {program}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`{shown} {}` failed ({status})", args.join(" ")))
+    }
 }
 
 /// Runs `cargo test` with `args`, echoing its output, and adds up the

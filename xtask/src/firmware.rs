@@ -9,6 +9,7 @@
 //! overrun, 4 timer check, 8 unexpected status), 101 = panic,
 //! 102 = HardFault (see `firmware/src/main.rs`).
 
+use crate::checks::run_step;
 use std::{
     io::{BufRead, BufReader},
     os::unix::process::CommandExt,
@@ -210,19 +211,6 @@ fn succeeds(program: &str, args: &[&str]) -> bool {
         .status()
         .map(|s| s.success())
         .unwrap_or(false)
-}
-
-/// Runs one set-up or build step, its output shown.
-fn run_step(program: &str, args: &[&str]) -> Result<(), String> {
-    let shown = if program == CARGO { "cargo" } else { program };
-    println!("==> {shown} {}", args.join(" "));
-    let status =
-        Command::new(program).args(args).status().map_err(|e| format!("cannot run {program}: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("`{shown} {}` failed ({status})", args.join(" ")))
-    }
 }
 
 /// A finished firmware run: its exit code and output lines.
