@@ -1,9 +1,11 @@
-//! The STM32F405 side: clocks, the TIM2 tick counter, the winch drives and
-//! the conversion of timer ticks to instructions (QEMU) or cycles (board).
+//! The STM32F405 side: clocks, the TIM2 tick counter, the winch drives,
+//! the independent watchdog, stack painting, the emergency stop and the
+//! conversion of timer ticks to instructions (QEMU) or cycles (board).
 
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+
+use cdpr_control::{TickCounter, WinchDrives, CABLES};
 use stm32f4::stm32f405::{RCC, TIM2};
-
-use crate::control::{robot::CABLES, TickCounter, TorqueOutput};
 
 /// Core clock (SYSCLK, HCLK), Hz. QEMU's `netduinoplus2` models 168 MHz for
 /// the core and SysTick; on the board the PLL set-up below provides it.
@@ -25,13 +27,16 @@ pub const TARGET: &str = "board build: HSE + PLL";
 
 /// `-icount shift=N` of the QEMU runner (`.cargo/config.toml`); every
 /// instruction advances virtual time by `2^N` ns.
+#[cfg_attr(not(feature = "demo"), allow(dead_code))]
 pub const ICOUNT_SHIFT: u32 = 3;
 
 /// What one converted tick unit is: instructions under QEMU (exact, from
 /// the icount relation), core clock cycles on the board.
 #[cfg(not(feature = "board"))]
+#[cfg_attr(not(feature = "demo"), allow(dead_code))]
 pub const UNIT: &str = "instructions";
 #[cfg(feature = "board")]
+#[cfg_attr(not(feature = "demo"), allow(dead_code))]
 pub const UNIT: &str = "cycles";
 
 /// TIM2 ticks for one [`UNIT`], as a fraction `(numerator, denominator)`.
@@ -96,6 +101,7 @@ fn timed_loop(clock: &impl TickCounter, n: u32) -> u32 {
 }
 
 /// Instructions in the difference of the two calibration loops.
+#[cfg_attr(not(feature = "demo"), allow(dead_code))]
 pub const CALIBRATION_INSTRUCTIONS: u32 = 2 * 10_000;
 
 /// TIM2 ticks for exactly [`CALIBRATION_INSTRUCTIONS`] instructions: the
@@ -109,34 +115,121 @@ pub fn calibrate(clock: &impl TickCounter) -> u32 {
     })
 }
 
-/// The winch drives. This board has none wired up, so the commands are only
-/// kept (the last one) and counted; a real drive (PWM, CAN) goes here.
+/// Set once the emergency stop has run; the drives then refuse commands.
+static STOPPED: AtomicBool = AtomicBool::new(false);
+/// Bit pattern of every drive's last torque command (for the emergency
+/// stop's report and the demo's printout).
+static LAST_TORQUES: [AtomicU32; CABLES] = [const { AtomicU32::new(0) }; CABLES];
+/// Whether the brakes were last commanded engaged.
+static BRAKES: AtomicBool = AtomicBool::new(true);
+
+/// The winch drives. The QEMU board has none, so the commands are kept (the
+/// last one) and counted. A board port puts its PWM timers and pins behind
+/// [`cdpr_control::drives::PwmDrives`] (embedded-hal 1.0) or a CAN driver
+/// here, and makes [`emergency_stop`] write zero torque and drop the brake
+/// pin directly.
 pub struct Drives {
-    last: [f32; CABLES],
     writes: u32,
 }
 
 impl Drives {
-    /// No command yet (all zero).
+    /// No command yet (torques zero, brakes engaged).
     pub const fn new() -> Self {
-        Self { last: [0.0; CABLES], writes: 0 }
+        Self { writes: 0 }
     }
 
     /// Commands written so far.
     pub fn writes(&self) -> u32 {
         self.writes
     }
+}
 
-    /// The last command, N m.
-    pub fn last(&self) -> &[f32; CABLES] {
-        &self.last
+/// Why a drive refused a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DrivesStopped;
+
+impl WinchDrives for Drives {
+    type Error = DrivesStopped;
+
+    fn apply(&mut self, torques: &[f32; CABLES]) -> Result<(), DrivesStopped> {
+        if STOPPED.load(Ordering::Relaxed) {
+            return Err(DrivesStopped);
+        }
+        for (slot, t) in LAST_TORQUES.iter().zip(torques) {
+            slot.store(t.to_bits(), Ordering::Relaxed);
+        }
+        self.writes = self.writes.wrapping_add(1);
+        Ok(())
+    }
+
+    fn set_brakes(&mut self, engaged: bool) -> Result<(), DrivesStopped> {
+        if STOPPED.load(Ordering::Relaxed) {
+            return Err(DrivesStopped);
+        }
+        BRAKES.store(engaged, Ordering::Relaxed);
+        Ok(())
     }
 }
 
-impl TorqueOutput for Drives {
-    fn apply(&mut self, torques: &[f32; CABLES]) {
-        self.last = *torques;
-        self.writes = self.writes.wrapping_add(1);
+/// The torques and brake state last written to the drives.
+pub fn drive_outputs() -> ([f32; CABLES], bool) {
+    (
+        LAST_TORQUES.each_ref().map(|t| f32::from_bits(t.load(Ordering::Relaxed))),
+        BRAKES.load(Ordering::Relaxed),
+    )
+}
+
+/// Stops the motors: zero torque on every drive and the brakes engaged,
+/// written directly (no task, no lock: callable from the panic and
+/// HardFault handlers), after which the drives refuse further commands.
+pub fn emergency_stop() {
+    STOPPED.store(true, Ordering::Relaxed);
+    for slot in &LAST_TORQUES {
+        slot.store(0.0f32.to_bits(), Ordering::Relaxed);
+    }
+    BRAKES.store(true, Ordering::Relaxed);
+}
+
+/// Ends the program: motors stopped first. Under QEMU the semihosting exit
+/// code reaches the shell; on the board the core waits for the watchdog
+/// (or a debugger).
+pub fn exit(code: i32) -> ! {
+    emergency_stop();
+    #[cfg(not(feature = "board"))]
+    semihosting::process::exit(code);
+    #[cfg(feature = "board")]
+    {
+        let _ = code;
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+}
+
+/// Independent watchdog timeout, ms: a little over 20 control periods, so
+/// a stuck control task resets the chip (which comes up Disabled, brakes on).
+#[cfg(feature = "board")]
+pub const WATCHDOG_MS: u32 = 20;
+
+/// Starts the IWDG (LSI 32 kHz / 32 = 1 kHz count, reload [`WATCHDOG_MS`]).
+/// Board only: QEMU 7.2's `netduinoplus2` does not model the IWDG.
+#[cfg(feature = "board")]
+pub fn start_watchdog(iwdg: &stm32f4::stm32f405::IWDG) {
+    iwdg.kr().write(|w| w.key().unlock());
+    iwdg.pr().write(|w| w.pr().divide_by32());
+    iwdg.rlr().write(|w| w.rl().set(WATCHDOG_MS as u16));
+    iwdg.kr().write(|w| w.key().start());
+}
+
+/// Reloads the IWDG (board only; nothing under QEMU).
+#[inline(always)]
+pub fn feed_watchdog() {
+    #[cfg(feature = "board")]
+    {
+        // SAFETY: a write of the reload key to IWDG_KR, which only this
+        // function writes after start-up.
+        let iwdg = unsafe { &*stm32f4::stm32f405::IWDG::ptr() };
+        iwdg.kr().write(|w| w.key().feed());
     }
 }
 

@@ -1,13 +1,14 @@
 //! The firmware's tasks for `cargo xtask`: set-up (Cortex-M target, QEMU,
-//! qemu-run), the demo in QEMU and the cycle-time test.
+//! qemu-run), the demo in QEMU, the cycle-time test, the memory report and
+//! the end-to-end serial test.
 //!
 //! Every function expects the workspace root as the current directory (the
 //! xtask `main` enters it first). The firmware runs through the runner of
 //! `.cargo/config.toml` (`qemu-run ... -icount shift=3,align=off,sleep=off`),
 //! so `cargo run` passes the firmware's semihosting exit code through:
 //! 0 = pass, 32 + flags = its own verdict "fail" (1 over budget, 2 deadline
-//! overrun, 4 timer check, 8 unexpected status), 101 = panic,
-//! 102 = HardFault (see `firmware/src/main.rs`).
+//! overrun, 4 timer check, 8 unexpected status, 16 unexpected state
+//! sequence), 101 = panic, 102 = HardFault (see `firmware/src/demo.rs`).
 
 use crate::checks::run_step;
 use std::{
@@ -38,6 +39,14 @@ const OVER_BUDGET_ONLY: i32 = 33;
 const MIN_CYCLES: u64 = 2_000;
 /// Longest a firmware run may take once built (it needs a few seconds).
 const RUN_TIMEOUT: Duration = Duration::from_secs(300);
+/// Limit on the worst stack depth the demo measures (stack painting), bytes.
+const STACK_LIMIT: u64 = 16 * 1024;
+/// The chip's flash and RAM (STM32F405: 1 MiB flash; `memory.x` gives the
+/// firmware 112 KiB of the 128 KiB main SRAM).
+const FLASH_BYTES: u64 = 1024 * 1024;
+const RAM_BYTES: u64 = 112 * 1024;
+/// The demo's state sequence (Enabled -> Holding -> Fault -> Disabled -> Enabled).
+const DEMO_STATES: &str = "states: [Disabled, Enabled, Holding, Fault, Disabled, Enabled]";
 
 const CARGO: &str = env!("CARGO");
 
@@ -146,7 +155,68 @@ pub fn test() -> Result<(usize, usize), String> {
         },
     );
 
+    report(
+        "safety states on the demo: enabled, holding, fault, disabled, enabled",
+        match run.lines.iter().find(|l| l.contains("states: [")) {
+            Some(line) if line.contains(DEMO_STATES) => Ok(line.trim().to_string()),
+            Some(line) => Err(format!("{} (expected `{DEMO_STATES}`)", line.trim())),
+            None => Err(format!("no `states:` line; the firmware {}", explain(run.code))),
+        },
+    );
+
+    report(
+        "worst stack depth within the limit (stack painting)",
+        match find_map(&run.lines, parse_stack_line) {
+            Some((used, size)) if used <= STACK_LIMIT && used < size => {
+                Ok(format!("{used} bytes used of {size}, limit {STACK_LIMIT}"))
+            }
+            Some((used, size)) => Err(format!("{used} bytes used of {size}, limit {STACK_LIMIT}")),
+            None => Err(format!("no `stack high-water mark` line; the firmware {}", explain(run.code))),
+        },
+    );
+
+    // The product build: sizes, then the end-to-end serial test.
+    let product = build_product();
+    report(
+        "product firmware memory (.text, .data, .bss)",
+        product.and_then(|()| {
+            let s = crate::elf::sizes(Path::new(crate::e2e::ELF))?;
+            let figures = format!(
+                ".text {} B, .rodata {} B, .data {} B, .bss {} B, .uninit {} B: flash {} of {} KiB, static RAM {} of {} KiB",
+                s.text,
+                s.rodata,
+                s.data,
+                s.bss,
+                s.uninit,
+                s.flash().div_ceil(1024),
+                FLASH_BYTES / 1024,
+                s.static_ram().div_ceil(1024),
+                RAM_BYTES / 1024
+            );
+            if s.flash() <= FLASH_BYTES && s.static_ram() + STACK_LIMIT <= RAM_BYTES && s.text > 0 {
+                Ok(figures)
+            } else {
+                Err(format!("{figures}; static RAM plus the {STACK_LIMIT}-byte stack limit must fit"))
+            }
+        }),
+    );
+    println!("==> end-to-end: the product firmware in QEMU, driven over its serial link");
+    for (name, result) in crate::e2e::run() {
+        report(&format!("end-to-end: {name}"), result);
+    }
+
     Ok((passed, failed))
+}
+
+/// Builds the product firmware (default features: the serial link).
+pub fn build_product() -> Result<(), String> {
+    run_step(CARGO, &["build", "--release", "-p", "firmware", "--target", TARGET])
+}
+
+/// `(used, size)` of `stack high-water mark: A of B bytes`.
+fn parse_stack_line(line: &str) -> Option<(u64, u64)> {
+    let rest = line.split_once("stack high-water mark: ")?.1;
+    Some((number_after(rest, "")?, number_after(rest, "of ")?))
 }
 
 fn ensure_target() -> Result<(), String> {
@@ -225,7 +295,7 @@ fn run_firmware(capture: bool) -> Result<Run, String> {
     if !Path::new("firmware/Cargo.toml").is_file() {
         return Err("run from the workspace root (firmware/Cargo.toml not found)".into());
     }
-    let cargo_args = ["--release", "-p", "firmware", "--target", TARGET];
+    let cargo_args = ["--release", "-p", "firmware", "--target", TARGET, "--features", "demo"];
     run_step(CARGO, &[&["build"][..], &cargo_args].concat())?;
     println!("==> firmware in QEMU (netduinoplus2, -icount shift=3,align=off,sleep=off)");
     let mut child = Command::new(CARGO)
@@ -273,13 +343,14 @@ fn wait_with_timeout(child: &mut Child, timeout: Duration) -> Result<Option<i32>
 fn explain(code: Option<i32>) -> String {
     match code {
         Some(0) => "exited with 0 (pass)".into(),
-        Some(c @ 32..=47) => {
+        Some(c @ 32..=63) => {
             let flags = c - 32;
             let reasons: Vec<&str> = [
                 (1, "a control step over budget"),
                 (2, "deadline overruns"),
                 (4, "the timer check failed"),
                 (8, "unexpected statuses"),
+                (16, "unexpected state sequence"),
             ]
             .iter()
             .filter(|(bit, _)| flags & bit != 0)
@@ -353,6 +424,8 @@ mod tests {
             Some((349, 0))
         );
         assert!(explain(Some(33)).contains("over budget"));
+        assert!(explain(Some(48)).contains("state sequence"));
+        assert_eq!(parse_stack_line("stack high-water mark: 6520 of 78908 bytes"), Some((6520, 78908)));
         assert!(explain(Some(101)).contains("panicked"));
     }
 }

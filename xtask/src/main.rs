@@ -6,8 +6,11 @@
 //! * `cargo xtask test`: the same set-up, then every check and test (format,
 //!   lints, the `no_std` build, the host tests, the firmware under QEMU), and
 //!   `N passed, N failed` last (exit code 1 if any failed).
+//! * `cargo xtask e2e`: only the end-to-end serial test (part of `test`).
 
 mod checks;
+mod e2e;
+mod elf;
 mod firmware;
 
 use std::process::exit;
@@ -25,8 +28,9 @@ fn main() {
     match task.as_str() {
         "run" => run(),
         "test" => test(),
+        "e2e" => e2e(),
         _ => {
-            eprintln!("usage: cargo xtask run | cargo xtask test");
+            eprintln!("usage: cargo xtask run | cargo xtask test | cargo xtask e2e");
             exit(2);
         }
     }
@@ -40,6 +44,28 @@ fn run() {
     }
 }
 
+/// Only the end-to-end serial test (part of `test`), for working on it.
+fn e2e() {
+    let mut tally = Tally::default();
+    match firmware::setup().and_then(|()| firmware::build_product()) {
+        Ok(()) => {
+            for (name, result) in e2e::run() {
+                match &result {
+                    Ok(detail) => println!("==> end-to-end: {name}: ok ({detail})"),
+                    Err(detail) => println!("==> end-to-end: {name}: FAILED ({detail})"),
+                }
+                tally.add(Tally { passed: result.is_ok() as usize, failed: result.is_err() as usize });
+            }
+        }
+        Err(e) => {
+            println!("==> end-to-end: FAILED ({e})");
+            tally.failed += 1;
+        }
+    }
+    println!("{} passed, {} failed", tally.passed, tally.failed);
+    exit(if tally.failed == 0 { 0 } else { 1 });
+}
+
 fn test() {
     let mut tally = Tally::default();
     if let Err(e) = firmware::setup() {
@@ -49,11 +75,15 @@ fn test() {
     let cargo = env!("CARGO");
     tally.add(check("format", cargo, &["fmt", "--all", "--", "--check"]));
     tally.add(check("clippy (host crates)", cargo, &["clippy", "--all-targets", "--", "-D", "warnings"]));
-    tally.add(check(
-        "clippy (firmware, thumbv7em-none-eabihf)",
-        cargo,
-        &["clippy", "-p", "firmware", "--target", TARGET, "--", "-D", "warnings"],
-    ));
+    // Every build of the firmware: product and demo, QEMU and board.
+    for features in ["", "demo", "board", "board,demo"] {
+        let shown = if features.is_empty() { "default" } else { features };
+        tally.add(check(
+            &format!("clippy (firmware, features {shown}, thumbv7em-none-eabihf)"),
+            cargo,
+            &["clippy", "-p", "firmware", "--target", TARGET, "--features", features, "--", "-D", "warnings"],
+        ));
+    }
     tally.add(check(
         "tension-core builds for the board (no_std)",
         cargo,

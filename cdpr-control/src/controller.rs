@@ -5,9 +5,9 @@
 use tension_core::nalgebra::{SMatrix, SVector};
 use tension_core::{Error, Method, Solution, TensionSolver, WarmStart};
 
-use super::robot::{suspended8, Suspended8, CABLES, DOF};
-use super::trajectory::Setpoint;
-use super::TickCounter;
+use crate::robot::{Suspended8, CABLES, DOF};
+use crate::trajectory::Setpoint;
+use crate::TickCounter;
 
 /// Wrench matrix `W` (6 x 8).
 pub type WrenchMatrix = SMatrix<f32, DOF, CABLES>;
@@ -52,18 +52,20 @@ pub struct Cycle {
     pub ticks: PhaseTicks,
 }
 
-/// The controller: the robot, a warm-started tension solver and the command
-/// currently applied.
+/// The controller: the robot and a warm-started tension solver. What
+/// reaches the winches is the [`crate::supervisor`]'s decision.
 pub struct Controller {
     robot: Suspended8,
     solver: TensionSolver<f32, CABLES>,
-    applied: [f32; CABLES],
 }
 
 impl Controller {
-    /// A controller for the suspended-8 robot with the given method.
-    pub fn new(method: Method) -> Result<Self, Error> {
-        Ok(Self { robot: suspended8()?, solver: TensionSolver::new(method), applied: [0.0; CABLES] })
+    /// A controller for `robot` (6 DOF, 8 cables, with a winch) using `method`.
+    pub fn new(robot: Suspended8, method: Method) -> Result<Self, Error> {
+        if robot.winch().is_none() {
+            return Err(Error::UnsupportedShape);
+        }
+        Ok(Self { robot, solver: TensionSolver::new(method) })
     }
 
     /// The robot.
@@ -71,21 +73,13 @@ impl Controller {
         &self.robot
     }
 
-    /// The torques to apply now: the last successful cycle's. After a
-    /// failed cycle (e.g. `infeasible`) the previous command is held.
-    pub fn applied(&self) -> &[f32; CABLES] {
-        &self.applied
-    }
-
     /// Kinematics and dynamics: the wrench matrix at the setpoint's pose and
-    /// the wrench the cables must produce (gravity plus the inertial wrench
-    /// from the setpoint's velocity and acceleration).
-    pub fn wrench(&self, setpoint: &Setpoint) -> Result<(WrenchMatrix, Wrench), Error> {
-        self.robot.wrench_problem(
-            &setpoint.pose,
-            &Wrench::zeros(),
-            Some((&setpoint.velocity, &setpoint.acceleration)),
-        )
+    /// the wrench the cables must produce: gravity, the inertial wrench
+    /// from the setpoint's velocity and acceleration, and `extra` (e.g. a
+    /// feedback wrench from a pose controller, base frame, about the
+    /// platform origin; zero for pure feed-forward).
+    pub fn wrench(&self, setpoint: &Setpoint, extra: &Wrench) -> Result<(WrenchMatrix, Wrench), Error> {
+        self.robot.wrench_problem(&setpoint.pose, extra, Some((&setpoint.velocity, &setpoint.acceleration)))
     }
 
     /// The tension distribution (warm-started from the previous success).
@@ -117,26 +111,22 @@ impl Controller {
         })
     }
 
-    /// One whole cycle; `clock` times each phase. On success the new
-    /// torques become [`Controller::applied`]; on failure the previous ones
-    /// stay.
-    pub fn step<C: TickCounter>(&mut self, setpoint: &Setpoint, clock: &C) -> Cycle {
+    /// One whole cycle; `clock` times each phase.
+    pub fn step<C: TickCounter>(&mut self, setpoint: &Setpoint, extra: &Wrench, clock: &C) -> Cycle {
         let mut ticks = PhaseTicks::default();
-        let result = self.run(setpoint, clock, &mut ticks);
-        if let Ok(command) = &result {
-            self.applied = command.torques;
-        }
+        let result = self.run(setpoint, extra, clock, &mut ticks);
         Cycle { result, ticks }
     }
 
     fn run<C: TickCounter>(
         &mut self,
         setpoint: &Setpoint,
+        extra: &Wrench,
         clock: &C,
         ticks: &mut PhaseTicks,
     ) -> Result<Command, Error> {
         let t0 = clock.ticks();
-        let problem = self.wrench(setpoint);
+        let problem = self.wrench(setpoint, extra);
         let t2 = clock.ticks();
         ticks.kinematics = t2.wrapping_sub(t0);
         let (w, f) = problem?;

@@ -1,14 +1,15 @@
 //! The suspended-8 robot (`/work/shared/robots/suspended-8.toml`) as Rust
 //! constants: 8 cables, every anchor 3.5 m up on a 4 m x 3 m frame, 6 DOF,
-//! 2 degrees of redundancy. Keep these numbers in step with the TOML file.
+//! 2 degrees of redundancy. Keep these numbers in step with the TOML file
+//! (`cdpr-control/tests/robot_constants.rs` checks them against it).
 
 use tension_core::nalgebra::{Matrix3, Vector3};
 use tension_core::{Error, Platform, Robot, RobotKind, TensionLimits, Winch};
 
-/// Degrees of freedom (spatial6).
-pub const DOF: usize = 6;
-/// Number of cables.
-pub const CABLES: usize = 8;
+/// Degrees of freedom (spatial6), as the protocol's messages carry them.
+pub const DOF: usize = cdpr_protocol::DOF;
+/// Number of cables, as the protocol's messages carry them.
+pub const CABLES: usize = cdpr_protocol::CABLES;
 
 /// The robot type the firmware runs: `f32`, 6 DOF, 8 cables.
 pub type Suspended8 = Robot<f32, DOF, CABLES>;
@@ -84,3 +85,17 @@ pub fn suspended8() -> Result<Suspended8, Error> {
         Some(Winch::new(DRUM_RADIUS, GEAR_RATIO, EFFICIENCY, TORQUE_MAX)?),
     )
 }
+
+/// The range a setpoint must lie in to be acted on (the link rejects the
+/// rest as out of range): the anchors' bounding box widened by 0.5 m,
+/// Euler angles within 1 rad, and speeds and accelerations a winch of this
+/// size can follow.
+pub const SETPOINT_RANGE: crate::link::SetpointRange = crate::link::SetpointRange {
+    position_min: [-2.5, -2.0, -0.5],
+    position_max: [2.5, 2.0, 4.0],
+    angle_max: 1.0,
+    speed_max: 5.0,
+    angular_speed_max: 10.0,
+    acceleration_max: 50.0,
+    angular_acceleration_max: 100.0,
+};

@@ -15,6 +15,7 @@
 //! but does not dominate gravity.
 
 use tension_core::nalgebra::SVector;
+use tension_core::Real;
 
 /// Control period, s.
 pub const PERIOD_S: f32 = 0.001;
@@ -41,11 +42,12 @@ pub const RZ: f32 = 0.2;
 /// A pose `[x, y, z, rx, ry, rz]` (SPEC "Poses") or one of its derivatives.
 pub type Pose6 = SVector<f32, 6>;
 
-/// One cycle's setpoint: pose and its first two time derivatives.
+/// A setpoint: pose and its first two time derivatives, with the sequence
+/// number it arrived with (the demo trajectory numbers cycle `k` as `k + 1`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Setpoint {
-    /// Time since the start of the loop, s.
-    pub time: f32,
+    /// Sequence number.
+    pub seq: u32,
     /// Pose `[x, y, z, rx, ry, rz]`.
     pub pose: Pose6,
     /// Its time derivative.
@@ -54,16 +56,16 @@ pub struct Setpoint {
     pub acceleration: Pose6,
 }
 
-/// The setpoint of control cycle `k` (`t = k PERIOD_S`).
+/// The setpoint of control cycle `k` (`t = k PERIOD_S`, sequence number `k + 1`).
 pub fn setpoint(k: u32) -> Setpoint {
-    setpoint_at(k as f32 * PERIOD_S)
+    Setpoint { seq: k.wrapping_add(1), ..setpoint_at(k as f32 * PERIOD_S) }
 }
 
-/// The setpoint at time `t`, s.
+/// The setpoint at time `t`, s (sequence number 0).
 pub fn setpoint_at(t: f32) -> Setpoint {
     let w = 2.0 * core::f32::consts::PI / DURATION_S;
     let phi = w * t;
-    let (s1, c1) = sin_cos(phi);
+    let (s1, c1) = phi.sin_cos_native();
     let (s2, c2) = (2.0 * s1 * c1, c1 * c1 - s1 * s1);
     let w2 = w * w;
     // Each coordinate is `A sin(n phi)` or `C - A cos(n phi)`.
@@ -84,33 +86,5 @@ pub fn setpoint_at(t: f32) -> Setpoint {
         -RY * w2 * s1,
         -RZ * w2 * s1,
     ]);
-    Setpoint { time: t, pose, velocity, acceleration }
-}
-
-/// `(sin x, cos x)` in `f32` arithmetic only; absolute error below `2e-7`
-/// for `|x| <= 2 pi` and below `1e-6` for `|x| <= 20` (checked against
-/// `f64` on the host). libm's `sinf`/`cosf` compute in
-/// `f64`, which the M4F's single-precision FPU emulates in software: about
-/// 1.2k instructions per call against some 40 here.
-///
-/// `x = k pi/2 + r` with `|r| <= pi/4` (Cody-Waite: `pi/2` split in two
-/// `f32` parts), then Taylor polynomials of degree 9 (sin) and 10 (cos) in
-/// `r` (truncation below `3e-8` on `|r| <= pi/4`), then the quadrant.
-pub fn sin_cos(x: f32) -> (f32, f32) {
-    const PI_2_HI: f32 = 1.570_796_4; // f32 nearest pi/2
-    const PI_2_LO: f32 = -4.371_139e-8; // pi/2 - PI_2_HI
-    let k = libm::roundf(x * core::f32::consts::FRAC_2_PI);
-    let r = (x - k * PI_2_HI) - k * PI_2_LO;
-    let r2 = r * r;
-    let s =
-        r * (1.0 + r2 * (-1.0 / 6.0 + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0)))));
-    let c = 1.0
-        + r2 * (-0.5
-            + r2 * (1.0 / 24.0 + r2 * (-1.0 / 720.0 + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0)))));
-    match (k as i32) & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    }
+    Setpoint { seq: 0, pose, velocity, acceleration }
 }

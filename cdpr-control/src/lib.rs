@@ -1,0 +1,56 @@
+//! The cable robot's per-cycle control logic, free of hardware: it names no
+//! PAC, RTIC or cortex-m item, so the firmware runs it on the board and
+//! `hal-sim` runs the same code on the host.
+//!
+//! * [`controller`]: setpoint -> wrench matrix and required wrench ->
+//!   barycenter tensions (warm-started) -> motor torques;
+//! * [`supervisor`]: the safety state machine (disabled, enabled, holding,
+//!   fault) that decides what reaches the winches;
+//! * [`link`]: what the serial protocol's frames mean (sequence order,
+//!   value ranges) and the counters of rejected frames;
+//! * [`control_loop`]: the three together, one call per millisecond;
+//! * [`drives`]: the winch output trait, with an embedded-hal 1.0 PWM adapter;
+//! * [`robot`], [`trajectory`], [`stats`]: the firmware's robot, its demo
+//!   trajectory and allocation-free cost statistics.
+//!
+//! The hardware this needs is behind two small traits: [`TickCounter`] (a
+//! free-running counter to time code) and [`drives::WinchDrives`].
+
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod control_loop;
+pub mod controller;
+pub mod drives;
+pub mod link;
+pub mod robot;
+pub mod stats;
+pub mod supervisor;
+pub mod trajectory;
+
+pub use cdpr_protocol as protocol;
+pub use control_loop::{ControlLoop, StepReport};
+pub use drives::WinchDrives;
+pub use robot::{CABLES, DOF};
+
+/// A free-running counter (wrapping, 32 bits) used to time code.
+pub trait TickCounter {
+    /// The current count.
+    fn ticks(&self) -> u32;
+
+    /// Ticks elapsed since `start` (wrapping).
+    fn since(&self, start: u32) -> u32 {
+        self.ticks().wrapping_sub(start)
+    }
+}
+
+/// A counter that never advances, for callers that do not time the step.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoClock;
+
+impl TickCounter for NoClock {
+    fn ticks(&self) -> u32 {
+        0
+    }
+}

@@ -1,0 +1,173 @@
+//! The serial protocol between a host and the cable-robot firmware.
+//!
+//! Both ends use this crate: the firmware (no_std, no allocation) and the
+//! host tools and tests. A frame on the wire is
+//!
+//! ```text
+//! COBS( postcard(message) ++ CRC-32(postcard(message)) as 4 bytes, little endian ) ++ 0x00
+//! ```
+//!
+//! * **postcard** (serde, wire format 1.0): integers `u16`/`u32` as varints,
+//!   `f32` as 4 bytes little endian, `bool` as one byte, enums as a varint
+//!   tag followed by the variant's fields in declaration order.
+//! * **CRC-32** is CRC-32/ISO-HDLC (the Ethernet / zlib CRC) over the
+//!   postcard bytes.
+//! * **COBS** (consistent overhead byte stuffing) removes every zero byte,
+//!   so that a single `0x00` ends each frame and a receiver that joins a
+//!   stream mid-frame resynchronises at the next zero.
+//!
+//! [`FrameDecoder`] takes bytes one at a time and yields each complete
+//! frame's message or the reason it was rejected ([`FrameError`]): bad COBS,
+//! too long, CRC mismatch, undecodable or with bytes left over. No input
+//! makes it panic. [`encode`] writes one frame.
+//!
+//! What a well-formed message *means* (sequence order, value ranges) is the
+//! receiver's business: see `cdpr-control`'s link layer.
+
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod messages;
+
+pub use messages::*;
+
+use serde::{de::DeserializeOwned, Serialize};
+
+/// Largest postcard payload of any message, bytes (the telemetry message
+/// is the largest: about 130 bytes).
+pub const MAX_PAYLOAD: usize = 192;
+
+/// Length of the CRC appended to the payload, bytes.
+pub const CRC_LEN: usize = 4;
+
+/// Largest frame on the wire: COBS adds one byte per 254 and the leading
+/// code byte, plus the trailing zero.
+pub const MAX_FRAME: usize = MAX_PAYLOAD + CRC_LEN + (MAX_PAYLOAD + CRC_LEN) / 254 + 2;
+
+/// The frame delimiter.
+pub const DELIMITER: u8 = 0x00;
+
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// The CRC-32/ISO-HDLC of `bytes` (check value `0xCBF43926` for `"123456789"`).
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
+/// Why a frame was rejected (or could not be written).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FrameError {
+    /// The bytes between two delimiters are not valid COBS (or are empty).
+    Framing,
+    /// More than [`MAX_FRAME`] bytes arrived without a delimiter; they are
+    /// dropped up to the next delimiter.
+    Oversize,
+    /// Too short to hold a CRC, or the CRC does not match.
+    Crc,
+    /// The CRC matches but the payload is not a message of the expected type.
+    Decode,
+    /// The payload holds a message followed by extra bytes.
+    TrailingBytes,
+    /// (Encoding) the output buffer is too small for the frame.
+    BufferTooSmall,
+}
+
+/// Writes `message` as one frame (COBS with the trailing delimiter) into
+/// `out` and returns the frame's length. `out` of [`MAX_FRAME`] bytes always
+/// suffices for this crate's messages.
+pub fn encode<T: Serialize>(message: &T, out: &mut [u8]) -> Result<usize, FrameError> {
+    let mut raw = [0u8; MAX_PAYLOAD + CRC_LEN];
+    let payload_len =
+        postcard::to_slice(message, &mut raw[..MAX_PAYLOAD]).map_err(|_| FrameError::BufferTooSmall)?.len();
+    let crc = crc32(&raw[..payload_len]).to_le_bytes();
+    raw[payload_len..payload_len + CRC_LEN].copy_from_slice(&crc);
+    let raw = &raw[..payload_len + CRC_LEN];
+    let body = cobs::try_encode(raw, out).map_err(|_| FrameError::BufferTooSmall)?;
+    let end = out.get_mut(body).ok_or(FrameError::BufferTooSmall)?;
+    *end = DELIMITER;
+    Ok(body + 1)
+}
+
+/// Decodes one frame's bytes (COBS, without the delimiter) in place and
+/// returns the message.
+pub fn decode<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError> {
+    if frame.is_empty() {
+        return Err(FrameError::Framing);
+    }
+    let len = cobs::decode_in_place(frame).map_err(|_| FrameError::Framing)?;
+    let raw = frame.get(..len).ok_or(FrameError::Framing)?;
+    if raw.len() < CRC_LEN + 1 {
+        return Err(FrameError::Crc);
+    }
+    let (payload, crc) = raw.split_at(raw.len() - CRC_LEN);
+    let expected = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+    if crc32(payload) != expected {
+        return Err(FrameError::Crc);
+    }
+    let (message, rest) = postcard::take_from_bytes::<T>(payload).map_err(|_| FrameError::Decode)?;
+    if !rest.is_empty() {
+        return Err(FrameError::TrailingBytes);
+    }
+    Ok(message)
+}
+
+/// Reassembles frames from a byte stream: feed every received byte to
+/// [`FrameDecoder::push`]; at each delimiter it returns the frame's message
+/// or why the frame was rejected. Empty frames (two delimiters in a row,
+/// which a sender may use to flush) are skipped silently.
+#[derive(Debug, Clone)]
+pub struct FrameDecoder {
+    buf: [u8; MAX_FRAME],
+    len: usize,
+    overflowed: bool,
+}
+
+impl Default for FrameDecoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FrameDecoder {
+    /// An empty decoder.
+    pub const fn new() -> Self {
+        Self { buf: [0; MAX_FRAME], len: 0, overflowed: false }
+    }
+
+    /// Takes one byte; returns `Some` when it ended a frame.
+    pub fn push<T: DeserializeOwned>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
+        if byte != DELIMITER {
+            match self.buf.get_mut(self.len) {
+                Some(slot) => {
+                    *slot = byte;
+                    self.len += 1;
+                }
+                None => self.overflowed = true,
+            }
+            return None;
+        }
+        let (len, overflowed) = (self.len, self.overflowed);
+        self.len = 0;
+        self.overflowed = false;
+        if overflowed {
+            return Some(Err(FrameError::Oversize));
+        }
+        if len == 0 {
+            return None;
+        }
+        Some(decode(&mut self.buf[..len]))
+    }
+
+    /// Drops a partly received frame (e.g. after a link reset).
+    pub fn reset(&mut self) {
+        self.len = 0;
+        self.overflowed = false;
+    }
+
+    /// Bytes of the frame received so far.
+    pub fn pending(&self) -> usize {
+        self.len
+    }
+}

@@ -1,0 +1,144 @@
+//! The messages: what the host sends ([`HostMessage`]) and what the
+//! firmware sends back ([`DeviceMessage`]). Sizes are fixed to the firmware's
+//! robot: [`DOF`] degrees of freedom, [`CABLES`] cables.
+
+use serde::{Deserialize, Serialize};
+
+/// Degrees of freedom of a pose (SPEC "Poses": `[x, y, z, rx, ry, rz]`).
+pub const DOF: usize = 6;
+/// Cables of the firmware's robot.
+pub const CABLES: usize = 8;
+
+/// A pose setpoint with its first two time derivatives (SPEC "Poses":
+/// metres and radians, XYZ Euler angles; derivatives are the plain time
+/// derivatives of those six numbers).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Setpoint {
+    /// Sequence number; each setpoint must carry a larger one than the last
+    /// accepted since the last `Enable` (older ones are rejected as out of order).
+    pub seq: u32,
+    /// `[x, y, z, rx, ry, rz]`, m and rad.
+    pub pose: [f32; DOF],
+    /// Time derivative of `pose`, m/s and rad/s.
+    pub velocity: [f32; DOF],
+    /// Second time derivative of `pose`, m/s^2 and rad/s^2.
+    pub acceleration: [f32; DOF],
+}
+
+/// Host to firmware.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HostMessage {
+    /// The newest pose setpoint (tag 0).
+    Setpoint(Setpoint),
+    /// Disabled -> enabled: start commanding torques (tag 1).
+    Enable,
+    /// Any state -> disabled: ramp the torques down and engage the brakes (tag 2).
+    Disable,
+    /// Fault -> disabled, once the fault ramp has finished (tag 3).
+    ClearFault,
+    /// Send telemetry every `period` control cycles; 0 stops it (tag 4).
+    TelemetryPeriod(u16),
+}
+
+/// The safety state machine's states (see the firmware README's diagram).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum State {
+    /// No torque commanded, brakes engaged (tag 0).
+    Disabled,
+    /// Tensions from the newest setpoint every cycle (tag 1).
+    Enabled,
+    /// The setpoint is unusable (infeasible, non-finite, out of range) or
+    /// stale: the last feasible torques are held, for a bounded time (tag 2).
+    Holding,
+    /// Latched: torques ramp to zero with the brakes engaged, until
+    /// `ClearFault` (tag 3).
+    Fault,
+}
+
+/// Why the state machine is in [`State::Holding`] or [`State::Fault`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Reason {
+    /// Nothing is wrong (tag 0).
+    None,
+    /// The setpoint's pose has no tensions within the limits (tag 1).
+    Infeasible,
+    /// The setpoint could not be used: non-finite, outside the allowed
+    /// range, or the solver failed for another reason (tag 2).
+    BadSetpoint,
+    /// No setpoint frame for longer than the stale limit (tag 3).
+    Stale,
+    /// Holding lasted longer than the hold limit (tag 4). The reason that
+    /// started the hold is in `Telemetry::hold_reason`.
+    HoldTimeout,
+    /// Deadline overruns past the threshold (tag 5).
+    Overruns,
+    /// The torque output reported an error (tag 6).
+    Output,
+}
+
+/// Running counters of the link and the control loop (they wrap at `u32::MAX`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Counters {
+    /// Frames accepted and acted on.
+    pub accepted: u32,
+    /// Frames rejected for framing: bad COBS or too long.
+    pub rejected_framing: u32,
+    /// Frames rejected for a CRC mismatch or too short.
+    pub rejected_crc: u32,
+    /// Frames with a good CRC that do not decode as a message.
+    pub rejected_decode: u32,
+    /// Setpoints whose sequence number is not larger than the last accepted.
+    pub rejected_order: u32,
+    /// Setpoints with a non-finite or out-of-range value.
+    pub rejected_range: u32,
+    /// Commands not allowed in the current state (e.g. `Enable` while in fault).
+    pub rejected_state: u32,
+    /// Control cycles that missed their deadline.
+    pub overruns: u32,
+    /// Control cycles whose setpoint was infeasible.
+    pub infeasible: u32,
+    /// Entries into the fault state.
+    pub faults: u32,
+}
+
+/// One telemetry sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Telemetry {
+    /// Control cycle number since start.
+    pub cycle: u32,
+    /// Sequence number of the setpoint the tensions were computed for
+    /// (0 before the first).
+    pub setpoint_seq: u32,
+    /// State after this cycle.
+    pub state: State,
+    /// Why the state is `Holding` or `Fault` (`None` otherwise).
+    pub reason: Reason,
+    /// What started the hold that led to a `HoldTimeout` fault (`None` otherwise).
+    pub hold_reason: Reason,
+    /// Whether this cycle's setpoint gave a feasible solution.
+    pub solved: bool,
+    /// The solver's tensions for `setpoint_seq`, N (valid when `solved`).
+    pub tensions: [f32; CABLES],
+    /// Motor torques commanded this cycle, N m.
+    pub torques: [f32; CABLES],
+    /// Brakes commanded engaged.
+    pub brakes: bool,
+    /// Instructions (cycles on the board) of this cycle's control step.
+    pub step_cost: u32,
+    /// Counters.
+    pub counters: Counters,
+}
+
+/// Firmware to host.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DeviceMessage {
+    /// A telemetry sample (tag 0).
+    Telemetry(Telemetry),
+}

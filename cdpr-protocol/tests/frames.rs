@@ -1,0 +1,233 @@
+//! Frames: golden bytes computed outside Rust (Python's `zlib.crc32` and a
+//! COBS written from the algorithm's definition), round trips, and hostile
+//! byte streams (bit flips, truncation, garbage, oversize) that must be
+//! rejected without a panic.
+
+use cdpr_protocol::{
+    crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Reason, Setpoint,
+    State, Telemetry, CABLES, MAX_FRAME,
+};
+use proptest::prelude::*;
+
+fn frame_of<T: serde::Serialize>(message: &T) -> Vec<u8> {
+    let mut out = [0u8; MAX_FRAME];
+    let n = encode(message, &mut out).expect("encodes");
+    out[..n].to_vec()
+}
+
+/// Feeds a byte stream and collects every frame's outcome.
+fn feed<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Vec<Result<T, FrameError>> {
+    let mut decoder = FrameDecoder::new();
+    bytes.iter().filter_map(|&b| decoder.push::<T>(b)).collect()
+}
+
+#[test]
+fn crc_check_value() {
+    // The catalogue check value of CRC-32/ISO-HDLC.
+    assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+}
+
+#[test]
+fn golden_enable_frame() {
+    // postcard(Enable) = [0x01]; zlib.crc32(b"\x01") = 0xA505DF1B.
+    assert_eq!(frame_of(&HostMessage::Enable), [0x06, 0x01, 0x1b, 0xdf, 0x05, 0xa5, 0x00]);
+}
+
+#[test]
+fn golden_setpoint_frame() {
+    // Tag 0, seq 1 (varint), six 0.5 (0x3f000000 LE), twelve 0.0: many zero
+    // bytes for COBS to stuff. Bytes from a Python reference.
+    let setpoint = Setpoint { seq: 1, pose: [0.5; 6], velocity: [0.0; 6], acceleration: [0.0; 6] };
+    let mut expected = vec![0x01, 0x02, 0x01];
+    for _ in 0..6 {
+        expected.extend([0x01, 0x01, 0x02, 0x3f]);
+    }
+    expected.extend([0x01; 47]);
+    expected.extend([0x05, 0x4a, 0xc8, 0xaf, 0xc6, 0x00]);
+    assert_eq!(expected.len(), 80);
+    assert_eq!(frame_of(&HostMessage::Setpoint(setpoint)), expected);
+}
+
+#[test]
+fn largest_message_fits() {
+    let telemetry = Telemetry {
+        cycle: u32::MAX,
+        setpoint_seq: u32::MAX,
+        state: State::Fault,
+        reason: Reason::HoldTimeout,
+        hold_reason: Reason::Infeasible,
+        solved: true,
+        tensions: [f32::MAX; CABLES],
+        torques: [-f32::MAX; CABLES],
+        brakes: true,
+        step_cost: u32::MAX,
+        counters: Counters {
+            accepted: u32::MAX,
+            rejected_framing: u32::MAX,
+            rejected_crc: u32::MAX,
+            rejected_decode: u32::MAX,
+            rejected_order: u32::MAX,
+            rejected_range: u32::MAX,
+            rejected_state: u32::MAX,
+            overruns: u32::MAX,
+            infeasible: u32::MAX,
+            faults: u32::MAX,
+        },
+    };
+    let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
+    assert!(frame.len() <= MAX_FRAME, "{} bytes", frame.len());
+    assert_eq!(feed::<DeviceMessage>(&frame), vec![Ok(DeviceMessage::Telemetry(telemetry))]);
+}
+
+/// Raw payload bytes with a correct CRC, COBS-framed by the test itself.
+fn framed_raw(payload: &[u8]) -> Vec<u8> {
+    let mut raw = payload.to_vec();
+    raw.extend(crc32(payload).to_le_bytes());
+    let mut out = vec![0u8; MAX_FRAME + 8];
+    let n = cobs::try_encode(&raw, &mut out).unwrap();
+    out.truncate(n);
+    out.push(0);
+    out
+}
+
+#[test]
+fn good_crc_but_not_a_message() {
+    // Tag 9 names no HostMessage variant.
+    assert_eq!(feed::<HostMessage>(&framed_raw(&[9])), vec![Err(FrameError::Decode)]);
+    // A setpoint cut short: the CRC is right, the fields are missing.
+    assert_eq!(feed::<HostMessage>(&framed_raw(&[0, 1, 0, 0])), vec![Err(FrameError::Decode)]);
+    // Enable followed by a stray byte.
+    assert_eq!(feed::<HostMessage>(&framed_raw(&[1, 7])), vec![Err(FrameError::TrailingBytes)]);
+}
+
+#[test]
+fn short_and_empty_frames() {
+    // Two delimiters in a row: an empty frame, skipped.
+    assert!(feed::<HostMessage>(&[0, 0, 0]).is_empty());
+    // COBS of fewer than five bytes cannot hold a payload and a CRC.
+    assert_eq!(feed::<HostMessage>(&[0x03, 0x01, 0x02, 0x00]), vec![Err(FrameError::Crc)]);
+    // A COBS code pointing past the end of the frame.
+    assert_eq!(feed::<HostMessage>(&[0x09, 0x01, 0x00]), vec![Err(FrameError::Framing)]);
+}
+
+#[test]
+fn oversize_is_dropped_and_the_next_frame_decodes() {
+    let mut stream = vec![0x55u8; MAX_FRAME + 10];
+    stream.push(0);
+    stream.extend(frame_of(&HostMessage::Disable));
+    assert_eq!(feed::<HostMessage>(&stream), vec![Err(FrameError::Oversize), Ok(HostMessage::Disable)]);
+}
+
+#[test]
+fn encode_into_a_small_buffer_fails_cleanly() {
+    let mut out = [0u8; 6];
+    assert_eq!(encode(&HostMessage::Enable, &mut out), Err(FrameError::BufferTooSmall));
+    let mut out = [0u8; 7];
+    assert_eq!(encode(&HostMessage::Enable, &mut out), Ok(7));
+}
+
+#[test]
+fn decode_of_an_empty_slice() {
+    assert_eq!(decode::<HostMessage>(&mut []), Err(FrameError::Framing));
+}
+
+fn any_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![any::<f32>(), Just(f32::NAN), Just(f32::INFINITY), Just(0.0f32), -10.0f32..10.0]
+}
+
+fn any_setpoint() -> impl Strategy<Value = Setpoint> {
+    (
+        any::<u32>(),
+        prop::array::uniform6(any_f32()),
+        prop::array::uniform6(any_f32()),
+        prop::array::uniform6(any_f32()),
+    )
+        .prop_map(|(seq, pose, velocity, acceleration)| Setpoint { seq, pose, velocity, acceleration })
+}
+
+fn any_host_message() -> impl Strategy<Value = HostMessage> {
+    prop_oneof![
+        any_setpoint().prop_map(HostMessage::Setpoint),
+        Just(HostMessage::Enable),
+        Just(HostMessage::Disable),
+        Just(HostMessage::ClearFault),
+        any::<u16>().prop_map(HostMessage::TelemetryPeriod),
+    ]
+}
+
+/// Equality that treats NaN payloads bit for bit.
+fn same_bits(a: &HostMessage, b: &HostMessage) -> bool {
+    match (a, b) {
+        (HostMessage::Setpoint(x), HostMessage::Setpoint(y)) => {
+            let bits = |s: &Setpoint| {
+                (
+                    s.seq,
+                    s.pose.map(f32::to_bits),
+                    s.velocity.map(f32::to_bits),
+                    s.acceleration.map(f32::to_bits),
+                )
+            };
+            bits(x) == bits(y)
+        }
+        _ => a == b,
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1000))]
+
+    /// Any message survives encoding and decoding, also in a stream that
+    /// starts with garbage (the decoder resynchronises at a delimiter).
+    #[test]
+    fn round_trip(messages in prop::collection::vec(any_host_message(), 1..6),
+                  junk in prop::collection::vec(1u8..=255, 0..40)) {
+        let mut stream = junk.clone();
+        stream.push(0);
+        for m in &messages {
+            stream.extend(frame_of(m));
+        }
+        let out = feed::<HostMessage>(&stream);
+        let decoded: Vec<HostMessage> = out.iter().filter_map(|r| r.as_ref().ok().copied()).collect();
+        prop_assert_eq!(decoded.len(), messages.len());
+        for (a, b) in decoded.iter().zip(&messages) {
+            prop_assert!(same_bits(a, b), "{:?} != {:?}", a, b);
+        }
+    }
+
+    /// Flipping any one bit of a frame never yields a message: CRC-32
+    /// detects every single-bit error, and a flip that makes or removes a
+    /// delimiter breaks the framing.
+    #[test]
+    fn single_bit_flips_are_rejected(message in any_host_message(), pick in any::<prop::sample::Index>(), bit in 0u8..8) {
+        let mut frame = frame_of(&message);
+        let i = pick.index(frame.len());
+        frame[i] ^= 1 << bit;
+        frame.push(0); // end whatever frame the flip left open
+        let out = feed::<HostMessage>(&frame);
+        prop_assert!(out.iter().all(|r| r.is_err()), "{:?} from a corrupted frame", out);
+        prop_assert!(!out.is_empty());
+    }
+
+    /// Any truncated frame, closed by a delimiter, is rejected.
+    #[test]
+    fn truncated_frames_are_rejected(message in any_host_message(), pick in any::<prop::sample::Index>()) {
+        let frame = frame_of(&message);
+        let cut = 1 + pick.index(frame.len() - 2); // keep at least one byte, drop at least the delimiter and one more
+        let mut stream = frame[..cut].to_vec();
+        stream.push(0);
+        let out = feed::<HostMessage>(&stream);
+        prop_assert_eq!(out.len(), 1);
+        prop_assert!(out[0].is_err());
+    }
+
+    /// Arbitrary bytes never panic the decoder, and a frame after them
+    /// still decodes.
+    #[test]
+    fn garbage_never_panics(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
+        let mut stream = bytes;
+        stream.push(0);
+        stream.extend(frame_of(&HostMessage::ClearFault));
+        let out = feed::<HostMessage>(&stream);
+        prop_assert_eq!(out.last(), Some(&Ok(HostMessage::ClearFault)));
+    }
+}

@@ -1,0 +1,424 @@
+//! The end-to-end test: the product firmware (default features) in QEMU,
+//! its USART1 on a TCP socket this program listens on, driven like a host
+//! would drive the board.
+//!
+//! QEMU runs with `-icount shift=3,align=off,sleep=on`: instructions still
+//! take 8 ns of virtual time each, but idle time passes in real time, so
+//! the firmware's 1 kHz loop and this program's stream share one clock
+//! (with `sleep=off` the firmware's idle milliseconds would fly by and
+//! every stream would look stale).
+//!
+//! Scenario (each step one check):
+//! 1. stream the demo trajectory's feasible part (1200 setpoints, about 1 ms
+//!    apart), enable, and compare every telemetry sample's tensions and
+//!    torques with `tension-core` in `f64` on the host for the same setpoint;
+//! 2. a corrupted frame: counted as rejected, the state stays Enabled;
+//! 3. NaN poses: Holding (bad setpoint), then Fault (held too long), torques
+//!    ramped to zero with the brakes engaged; then ClearFault and Enable
+//!    with good setpoints: Enabled again;
+//! 4. the stream stops: Holding (stale), then Fault.
+
+use std::{
+    collections::HashMap,
+    io::{BufRead, BufReader, Read, Write},
+    net::{TcpListener, TcpStream},
+    os::unix::process::CommandExt,
+    path::Path,
+    process::{Child, Command, Stdio},
+    sync::{Arc, Mutex},
+    thread,
+    time::{Duration, Instant},
+};
+
+use cdpr_control::trajectory;
+use cdpr_protocol::{
+    encode, DeviceMessage, FrameDecoder, HostMessage, Reason, Setpoint, State, Telemetry, MAX_FRAME,
+};
+use tension_core::nalgebra::SVector;
+use tension_core::{Method, Robot, TensionSolver};
+
+/// The product firmware's ELF (built by `firmware::build_product`).
+pub const ELF: &str = "target/thumbv7em-none-eabihf/release/firmware";
+/// The robot the firmware's constants describe.
+const ROBOT_FILE: &str = "../shared/robots/suspended-8.toml";
+
+/// Stated tolerance of the firmware's f32 tensions against the host's f64
+/// barycenter, as a fraction of `t_max - t_min` (345 N for suspended-8):
+/// the f32 kinematics and solver round at about 1e-7 relative; the
+/// host-side property test measured 3.7e-6 of the range on this robot.
+pub const TENSION_TOLERANCE: f64 = 1e-4;
+
+/// Telemetry every this many cycles: QEMU spends real time on every byte
+/// the USART writes, and one 90-byte sample per cycle slows its virtual
+/// clock below real time.
+const TELEMETRY_PERIOD: u16 = 4;
+
+/// Setpoints streamed in the tracking phase (the trajectory's first 1.2 s,
+/// all inside the workspace).
+const TRACKING_SETPOINTS: u32 = 1200;
+
+type Robot68 = Robot<f64, 6, 8>;
+
+/// What the reader thread collected.
+#[derive(Default)]
+struct Received {
+    telemetry: Vec<Telemetry>,
+    rejected_frames: usize,
+}
+
+struct Session {
+    stream: TcpStream,
+    received: Arc<Mutex<Received>>,
+    qemu: Child,
+    seq: u32,
+    sent: HashMap<u32, Setpoint>,
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        let group = format!("-{}", self.qemu.id());
+        let _ = Command::new("kill").args(["-KILL", "--", &group]).status();
+        let _ = self.qemu.wait();
+    }
+}
+
+impl Session {
+    fn start() -> Result<Self, String> {
+        let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| format!("cannot listen: {e}"))?;
+        let port = listener.local_addr().map_err(|e| e.to_string())?.port();
+        let mut qemu = Command::new("qemu-run")
+            .args(["--machine", "netduinoplus2", "--cpu", "cortex-m4"])
+            .args(["--arg", "icount=shift=3,align=off,sleep=on"])
+            .args(["--arg", &format!("serial=tcp:127.0.0.1:{port}")])
+            .arg(ELF)
+            .stdout(Stdio::piped())
+            .process_group(0)
+            .spawn()
+            .map_err(|e| format!("cannot start qemu-run: {e}"))?;
+        // The firmware's own log, prefixed.
+        if let Some(out) = qemu.stdout.take() {
+            thread::spawn(move || {
+                for line in BufReader::new(out).lines().map_while(Result::ok) {
+                    println!("    firmware| {line}");
+                }
+            });
+        }
+        listener.set_nonblocking(true).map_err(|e| e.to_string())?;
+        let start = Instant::now();
+        let stream = loop {
+            match listener.accept() {
+                Ok((s, _)) => break s,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    if start.elapsed() > Duration::from_secs(30) {
+                        return Err("QEMU did not connect its serial port within 30 s".into());
+                    }
+                    thread::sleep(Duration::from_millis(20));
+                }
+                Err(e) => return Err(format!("accept: {e}")),
+            }
+        };
+        stream.set_nonblocking(false).map_err(|e| e.to_string())?;
+        stream.set_nodelay(true).map_err(|e| e.to_string())?;
+        let received = Arc::new(Mutex::new(Received::default()));
+        let mut reader = stream.try_clone().map_err(|e| e.to_string())?;
+        let sink = Arc::clone(&received);
+        thread::spawn(move || {
+            let mut decoder = FrameDecoder::new();
+            let mut buf = [0u8; 4096];
+            while let Ok(n) = reader.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                let mut got = sink.lock().unwrap();
+                for &b in &buf[..n] {
+                    match decoder.push::<DeviceMessage>(b) {
+                        Some(Ok(DeviceMessage::Telemetry(t))) => got.telemetry.push(t),
+                        Some(Err(_)) => got.rejected_frames += 1,
+                        None => {}
+                    }
+                }
+            }
+        });
+        let session = Self { stream, received, qemu, seq: 0, sent: HashMap::new() };
+        // USART1 drops what arrives before the firmware enables it: wait for
+        // the first telemetry (sent every 10 cycles from start-up).
+        if session.wait_for(0, Duration::from_secs(30), |_| true).is_none() {
+            return Err("no telemetry from the firmware within 30 s of connecting".into());
+        }
+        Ok(session)
+    }
+
+    fn send(&mut self, message: &HostMessage) -> Result<(), String> {
+        let mut frame = [0u8; MAX_FRAME];
+        let n = encode(message, &mut frame).map_err(|e| format!("encode: {e:?}"))?;
+        self.send_raw(&frame[..n])
+    }
+
+    fn send_raw(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.stream.write_all(bytes).map_err(|e| format!("serial link closed: {e}"))
+    }
+
+    /// Sends the trajectory's setpoint of cycle `k` with the next sequence
+    /// number and remembers it.
+    fn send_setpoint(&mut self, k: u32) -> Result<(), String> {
+        self.seq += 1;
+        let s = trajectory::setpoint(k);
+        let wire = Setpoint {
+            seq: self.seq,
+            pose: core::array::from_fn(|i| s.pose[i]),
+            velocity: core::array::from_fn(|i| s.velocity[i]),
+            acceleration: core::array::from_fn(|i| s.acceleration[i]),
+        };
+        self.sent.insert(self.seq, wire);
+        self.send(&HostMessage::Setpoint(wire))
+    }
+
+    fn telemetry_count(&self) -> usize {
+        self.received.lock().unwrap().telemetry.len()
+    }
+
+    fn telemetry_since(&self, from: usize) -> Vec<Telemetry> {
+        self.received.lock().unwrap().telemetry[from..].to_vec()
+    }
+
+    /// Waits until the firmware has reported the last setpoint sent.
+    fn caught_up(&self, from: usize) -> Option<Telemetry> {
+        let seq = self.seq;
+        self.wait_for(from, Duration::from_secs(10), |t| t.setpoint_seq == seq)
+    }
+
+    /// Waits (real time) until a sample after `from` satisfies `until`.
+    fn wait_for(
+        &self,
+        from: usize,
+        timeout: Duration,
+        until: impl Fn(&Telemetry) -> bool,
+    ) -> Option<Telemetry> {
+        let start = Instant::now();
+        while start.elapsed() < timeout {
+            if let Some(t) = self.telemetry_since(from).into_iter().find(|t| until(t)) {
+                return Some(t);
+            }
+            thread::sleep(Duration::from_millis(5));
+        }
+        None
+    }
+}
+
+/// The host's reference: `f64` barycenter tensions and SPEC motor torques
+/// for a setpoint, from the shared robot file.
+fn reference(robot: &Robot68, s: &Setpoint) -> Result<([f64; 8], [f64; 8]), String> {
+    let v = |a: &[f32; 6]| SVector::<f64, 6>::from_fn(|i, _| f64::from(a[i]));
+    let (w, f) = robot
+        .wrench_problem(&v(&s.pose), &SVector::zeros(), Some((&v(&s.velocity), &v(&s.acceleration))))
+        .map_err(|e| format!("host kinematics: {}", e.status()))?;
+    let solution = TensionSolver::<f64, 8>::new(Method::Barycenter)
+        .solve(&w, &f, robot.limits())
+        .map_err(|e| format!("host barycenter: {}", e.status()))?;
+    let winch = robot.winch().ok_or("no winch in the robot file")?;
+    let tensions: [f64; 8] = core::array::from_fn(|i| solution.tensions[i]);
+    let mut torques = [0.0; 8];
+    for (t, &tension) in torques.iter_mut().zip(&tensions) {
+        *t = winch.motor_torque(tension).map_err(|e| e.status().to_string())?.torque;
+    }
+    Ok((tensions, torques))
+}
+
+/// Runs the scenario; each entry is one check's name and outcome.
+pub fn run() -> Vec<(String, Result<String, String>)> {
+    let mut results = Vec::new();
+    if let Err(e) = scenario(&mut results) {
+        results.push(("end-to-end session".into(), Err(e)));
+    }
+    results
+}
+
+fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), String> {
+    let robot = robot_file::RobotFile::load(Path::new(ROBOT_FILE))
+        .map_err(|e| format!("{ROBOT_FILE}: {e}"))?
+        .to_robot::<f64, 6, 8>()
+        .map_err(|e| format!("{ROBOT_FILE}: {e}"))?;
+    let range = robot.limits().max()[0] - robot.limits().min()[0];
+    let winch = *robot.winch().ok_or("no winch")?;
+    let tension_tol = TENSION_TOLERANCE * range;
+    let torque_tol = tension_tol * winch.drum_radius / (winch.gear_ratio * winch.efficiency);
+
+    let mut s = Session::start()?;
+    let pace = Duration::from_millis(1);
+
+    // --- 1. Tracking: stream, enable, compare every sample with the host.
+    s.send(&HostMessage::TelemetryPeriod(TELEMETRY_PERIOD))?;
+    let from = s.telemetry_count();
+    for k in 0..TRACKING_SETPOINTS {
+        s.send_setpoint(k)?;
+        if k == 5 {
+            s.send(&HostMessage::Enable)?;
+        }
+        thread::sleep(pace);
+    }
+    s.caught_up(from).ok_or("the firmware never reported the last tracking setpoint")?;
+    let tracking = s.telemetry_since(from);
+    let last = tracking.last().copied();
+
+    // --- 2. A corrupted frame among good ones.
+    let before = s.telemetry_count();
+    let k0 = TRACKING_SETPOINTS;
+    let rejected_before = last.map_or(0, |t| t.counters.rejected_crc + t.counters.rejected_framing);
+    let mut frame = [0u8; MAX_FRAME];
+    let bad = Setpoint { seq: s.seq + 1, ..s.sent[&s.seq] };
+    let n = encode(&HostMessage::Setpoint(bad), &mut frame).map_err(|e| format!("{e:?}"))?;
+    frame[12] ^= 0x10;
+    s.send_raw(&frame[..n])?;
+    for k in k0..k0 + 50 {
+        s.send_setpoint(k)?;
+        thread::sleep(pace);
+    }
+    s.caught_up(before).ok_or("the firmware never reported the setpoints after the corrupted frame")?;
+    let after = s.telemetry_since(before);
+    let rejected_after = after.last().map_or(0, |t| t.counters.rejected_crc + t.counters.rejected_framing);
+    let all_enabled = after.iter().all(|t| t.state == State::Enabled);
+    results.push((
+        "corrupted frame rejected and counted, state unchanged".into(),
+        if rejected_after == rejected_before + 1 && all_enabled && !after.is_empty() {
+            Ok(format!("CRC/framing rejections {rejected_before} -> {rejected_after}, Enabled throughout"))
+        } else {
+            Err(format!(
+                "rejections {rejected_before} -> {rejected_after}, states {:?}",
+                after.iter().map(|t| t.state).collect::<Vec<_>>()
+            ))
+        },
+    ));
+
+    // --- 3. NaN poses: hold, then fault with the torques ramped down.
+    // NaN setpoints until the firmware reports a fault (at most 10 s).
+    let before = s.telemetry_count();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(10)
+        && !s.telemetry_since(before).iter().any(|t| t.state == State::Fault)
+    {
+        s.seq += 1;
+        let nan = Setpoint { seq: s.seq, pose: [f32::NAN, 0.0, 2.0, 0.0, 0.0, 0.0], ..s.sent[&(s.seq - 1)] };
+        s.sent.insert(s.seq, nan);
+        s.send(&HostMessage::Setpoint(nan))?;
+        thread::sleep(pace);
+    }
+    let holding = s.wait_for(before, Duration::from_secs(2), |t| t.state == State::Holding);
+    let fault = s.wait_for(before, Duration::from_secs(2), |t| t.state == State::Fault);
+    let check = match (holding, fault) {
+        (Some(h), Some(f)) if h.reason == Reason::BadSetpoint
+            && f.reason == Reason::HoldTimeout
+            && f.hold_reason == Reason::BadSetpoint
+            && f.brakes
+            && f.counters.rejected_range > 0 =>
+        {
+            Ok(format!(
+                "Holding (bad setpoint) at cycle {}, Fault (held too long) at cycle {} ({} cycles later), {} setpoints rejected as out of range",
+                h.cycle,
+                f.cycle,
+                f.cycle - h.cycle,
+                f.counters.rejected_range
+            ))
+        }
+        other => Err(format!("expected Holding(BadSetpoint) then Fault(HoldTimeout): {other:?}")),
+    };
+    results.push(("NaN pose: holding, then fault".into(), check));
+
+    // The ramp reaches zero with the brakes on; then recovery.
+    let ramped = s.wait_for(before, Duration::from_secs(10), |t| {
+        t.state == State::Fault && t.torques.iter().all(|&x| x == 0.0) && t.brakes
+    });
+    let from = s.telemetry_count();
+    for k in k0..k0 + 40 {
+        s.send_setpoint(k)?;
+        if k == k0 + 10 {
+            s.send(&HostMessage::ClearFault)?;
+        }
+        if k == k0 + 20 {
+            s.send(&HostMessage::Enable)?;
+        }
+        thread::sleep(pace);
+    }
+    let back = s.wait_for(from, Duration::from_secs(10), |t| t.state == State::Enabled);
+    results.push((
+        "fault ramps the torques to zero; ClearFault and Enable recover".into(),
+        match (ramped, back) {
+            (Some(r), Some(b)) => Ok(format!(
+                "torques zero with brakes on at cycle {}, Enabled again at cycle {}",
+                r.cycle, b.cycle
+            )),
+            (r, b) => Err(format!("ramped to zero: {}, enabled again: {}", r.is_some(), b.is_some())),
+        },
+    ));
+
+    // --- 4. The stream stops.
+    let before = s.telemetry_count();
+    let _ = s.wait_for(before, Duration::from_secs(10), |t| t.state == State::Fault);
+    let samples = s.telemetry_since(before);
+    let first_hold = samples.iter().find(|t| t.state == State::Holding);
+    let first_fault = samples.iter().find(|t| t.state == State::Fault);
+    let enabled_until = samples.iter().take_while(|t| t.state == State::Enabled).last();
+    results.push((
+        "stream stops: holding (stale), then fault".into(),
+        match (first_hold, first_fault) {
+            (Some(h), Some(f)) if h.reason == Reason::Stale && f.hold_reason == Reason::Stale => Ok(format!(
+                "last Enabled at cycle {}, Holding (stale) at cycle {}, Fault at cycle {}",
+                enabled_until.map_or(0, |t| t.cycle),
+                h.cycle,
+                f.cycle
+            )),
+            (h, f) => Err(format!("expected Holding(Stale) then Fault: {h:?} / {f:?}")),
+        },
+    ));
+    // The references are computed last: the stream must not pause (it
+    // would go stale) while the host solves.
+    let samples = tracking;
+    let mut compared = 0;
+    let (mut worst_tension, mut worst_torque) = (0.0f64, 0.0f64);
+    let mut problems = Vec::new();
+    for t in samples.iter().filter(|t| t.state == State::Enabled && t.solved) {
+        let Some(sent) = s.sent.get(&t.setpoint_seq) else {
+            problems.push(format!("telemetry names setpoint {} that was never sent", t.setpoint_seq));
+            continue;
+        };
+        let (tensions, torques) = reference(&robot, sent)?;
+        for i in 0..8 {
+            worst_tension = worst_tension.max((f64::from(t.tensions[i]) - tensions[i]).abs());
+            worst_torque = worst_torque.max((f64::from(t.torques[i]) - torques[i]).abs());
+        }
+        compared += 1;
+    }
+    let enabled = samples.iter().filter(|t| t.state == State::Enabled).count();
+    let check = if !problems.is_empty() {
+        Err(problems.join("; "))
+    } else if compared < (TRACKING_SETPOINTS / u32::from(TELEMETRY_PERIOD) / 4) as usize {
+        Err(format!(
+            "only {compared} enabled samples with a solution out of {} telemetry samples",
+            samples.len()
+        ))
+    } else if worst_tension > tension_tol || worst_torque > torque_tol {
+        Err(format!(
+            "worst tension error {worst_tension:.3e} N (tolerance {tension_tol:.3e}), torque {worst_torque:.3e} N m (tolerance {torque_tol:.3e})"
+        ))
+    } else if last.is_some_and(|t| {
+        t.counters.rejected_crc
+            + t.counters.rejected_framing
+            + t.counters.rejected_decode
+            + t.counters.rejected_range
+            + t.counters.rejected_order
+            > 0
+    }) {
+        Err(format!("frames rejected during a clean stream: {:?}", last.map(|t| t.counters)))
+    } else {
+        Ok(format!(
+            "{compared} samples compared ({enabled} enabled of {} received); worst |t - t_host| {worst_tension:.2e} N, |tau - tau_host| {worst_torque:.2e} N m (tolerances {tension_tol:.2e} N = {TENSION_TOLERANCE:e} of the range, {torque_tol:.2e} N m)",
+            samples.len()
+        ))
+    };
+    results.insert(0, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
+
+    let garbage = s.received.lock().unwrap().rejected_frames;
+    if garbage > 0 {
+        results.push(("telemetry frames decode on the host".into(), Err(format!("{garbage} bad frames"))));
+    }
+    Ok(())
+}
