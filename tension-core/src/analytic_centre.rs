@@ -25,7 +25,9 @@
 //! the first full step lands on `W t = f` and from then on a backtracking
 //! (Armijo) line search on `phi` keeps every iterate in the domain.
 //!
-//! **Infeasible poses.** If the iterates cannot reach `W t = f`, a bounded
+//! **Infeasible poses.** If the iterates cannot reach `W t = f` (the box
+//! cuts four infeasible-start steps in a row below `1e-3` of the Newton
+//! step, or the iterations run out), a bounded
 //! projected-gradient search for `min |W t - f|` over the box looks for a
 //! Farkas certificate `y`: `sum_i max(y.w_i t_min_i, y.w_i t_max_i) < y.f`
 //! proves that no tension in the box balances the wrench
@@ -205,6 +207,12 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
         let mut on_sigma = (f - w * t).amax() <= eq_tol;
         let mut hr: SMatrix<T, M, M> = SMatrix::zeros();
         let mut rhs: SVector<T, M> = SVector::zeros();
+        // Infeasible-start steps shorter than this, STUCK_LIMIT times in a
+        // row, mean the box stops the iterates short of W t = f (their
+        // residual shrinks by 1 - s per step): look for a certificate.
+        const STUCK_STEP: f64 = 1.0e-3;
+        const STUCK_LIMIT: u32 = 4;
+        let mut stuck = 0;
         for iteration in 0..=self.settings.max_iterations {
             let residual = f - w * t;
             let step_p = fact.min_norm_solution(&residual);
@@ -329,6 +337,12 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
             }
             if !accepted {
                 break;
+            }
+            if !on_sigma {
+                stuck = if s < T::lit(STUCK_STEP) { stuck + 1 } else { 0 };
+                if stuck >= STUCK_LIMIT {
+                    break;
+                }
             }
             if !on_sigma && s == T::one() {
                 on_sigma = true;
