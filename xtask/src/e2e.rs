@@ -416,8 +416,13 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
     }) {
         Err(format!("frames rejected during a clean stream: {:?}", last.map(|t| t.counters)))
     } else {
+        let mut costs: Vec<u32> = samples.iter().map(|t| t.step_cost).filter(|&c| c > 0).collect();
+        costs.sort_unstable();
+        let cost = |q: usize| costs.get(q * costs.len().saturating_sub(1) / 100).copied().unwrap_or(0);
         Ok(format!(
-            "{compared} samples compared ({enabled} enabled of {} received); worst |t - t_host| {worst_tension:.2e} N, |tau - tau_host| {worst_torque:.2e} N m (tolerances {tension_tol:.2e} N = {TENSION_TOLERANCE:e} of the range, {torque_tol:.2e} N m)",
+            "step cost with frame decoding (telemetry): median {} max {} instructions; {compared} samples compared ({enabled} enabled of {} received); worst |t - t_host| {worst_tension:.2e} N, |tau - tau_host| {worst_torque:.2e} N m (tolerances {tension_tol:.2e} N = {TENSION_TOLERANCE:e} of the range, {torque_tol:.2e} N m)",
+            cost(50),
+            cost(100),
             samples.len()
         ))
     };
