@@ -5,7 +5,8 @@
 //!   IPAnema 1, in `f64` and `f32`: `barycenter` warm (the previous pose's
 //!   active pair) and cold, `barycenter-brute`, `analytic-centre` warm (the
 //!   previous pose's tensions) and cold, `closed-form`, `improved-closed-form`,
-//!   and a bounded QP (minimum 2-norm within the limits) solved by `clarabel`,
+//!   `puncture`, `improved-puncture`, `min-2-norm` and `min-1-norm` (warm: the
+//!   walk's active pair), `optimally-safe`, and a bounded QP (minimum 2-norm within the limits) solved by `clarabel`,
 //!   what a user would otherwise reach for.
 //! * Scaling: `analytic-centre` and `improved-closed-form` for 6 DOF with 7 to
 //!   12 cables.
@@ -66,11 +67,16 @@ enum Variant {
     AnalyticCentreCold,
     ClosedForm,
     ImprovedClosedForm,
+    Puncture,
+    ImprovedPuncture,
+    Min2Norm,
+    Min1Norm,
+    OptimallySafe,
     QpClarabel,
 }
 
 impl Variant {
-    const ALL: [Variant; 8] = [
+    const ALL: [Variant; 13] = [
         Variant::BarycenterWarm,
         Variant::BarycenterCold,
         Variant::BarycenterBrute,
@@ -78,6 +84,11 @@ impl Variant {
         Variant::AnalyticCentreCold,
         Variant::ClosedForm,
         Variant::ImprovedClosedForm,
+        Variant::Puncture,
+        Variant::ImprovedPuncture,
+        Variant::Min2Norm,
+        Variant::Min1Norm,
+        Variant::OptimallySafe,
         Variant::QpClarabel,
     ];
 
@@ -90,6 +101,11 @@ impl Variant {
             Variant::AnalyticCentreCold => "analytic-centre (cold)",
             Variant::ClosedForm => "closed-form",
             Variant::ImprovedClosedForm => "improved-closed-form",
+            Variant::Puncture => "puncture",
+            Variant::ImprovedPuncture => "improved-puncture",
+            Variant::Min2Norm => "min-2-norm (warm)",
+            Variant::Min1Norm => "min-1-norm (warm)",
+            Variant::OptimallySafe => "optimally-safe",
             Variant::QpClarabel => "QP min |t|_2 (clarabel)",
         }
     }
@@ -117,6 +133,11 @@ impl<T: Real, const M: usize> Runner<T, M> {
             Variant::AnalyticCentreCold => analytic_centre(w, f, limits, None),
             Variant::ClosedForm => closed_form(w, f, limits),
             Variant::ImprovedClosedForm => improved_closed_form(w, f, limits),
+            Variant::Puncture => tension_core::puncture(w, f, limits),
+            Variant::ImprovedPuncture => tension_core::improved_puncture(w, f, limits),
+            Variant::Min2Norm => tension_core::min_2_norm(w, f, limits, self.pair),
+            Variant::Min1Norm => tension_core::min_1_norm(w, f, limits, self.pair),
+            Variant::OptimallySafe => tension_core::optimally_safe(w, f, limits),
             Variant::QpClarabel => return qp(w, f, limits),
         };
         match result {

@@ -27,7 +27,8 @@ enum Command {
         /// Robot description file (TOML).
         #[arg(long)]
         robot: PathBuf,
-        /// barycenter, barycenter-brute, analytic-centre, closed-form or improved-closed-form.
+        /// barycenter, barycenter-brute, analytic-centre, closed-form, improved-closed-form,
+        /// puncture, improved-puncture, min-2-norm, min-1-norm or optimally-safe.
         #[arg(long)]
         method: String,
         /// Pose table: [time,]pose columns[,extra wrench columns].

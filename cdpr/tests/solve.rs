@@ -8,6 +8,8 @@ use common::*;
 
 const ALL: [&str; 5] =
     ["barycenter", "barycenter-brute", "analytic-centre", "closed-form", "improved-closed-form"];
+/// The methods of issue 7 (any redundancy).
+const MORE: [&str; 5] = ["puncture", "improved-puncture", "min-2-norm", "min-1-norm", "optimally-safe"];
 
 /// planar-point-4 at the centre (1.5, 1.5) of its 3 m x 3 m square. The
 /// cables point to the corners, u = (+-1, +-1)/sqrt(2); W 1 = 0 and
@@ -94,6 +96,45 @@ fn point_mass_on_three_cables_closed_form_by_hand() {
     assert_eq!(run.code, 2);
     assert!(run.stderr.contains("r.toml"), "{}", run.stderr);
     assert!(!dir.join("b.csv").exists());
+}
+
+/// The same three-cable point mass (r = 1) with the methods of issue 7, by
+/// hand. t3 = 19.62 always (slack 18.62 to t_min), t2 = t1 + fx.
+/// * min-2-norm and min-1-norm: the smallest t1 with t1, t2 >= 1: (1, 1) and
+///   (1, 11).
+/// * puncture, improved-puncture: from W^+ f = (-fx/2, fx/2, 19.62) towards
+///   the closed form (50.5 - fx/2, 50.5 + fx/2, 19.62), cable 1 enters its
+///   range first: t1 = 1, the same points.
+/// * optimally-safe: cable 3's slack 18.62 is the largest possible smallest
+///   slack; every t1 with t1 - 1 >= 18.62 and 100 - t2 >= 18.62 reaches it,
+///   and the smallest 2-norm among them has t1 = 19.62: (19.62, 19.62) and
+///   (19.62, 29.62).
+#[test]
+fn point_mass_on_three_cables_more_methods_by_hand() {
+    let dir = scratch("three-more");
+    std::fs::write(
+        dir.join("r.toml"),
+        "name = \"three\"\nkind = \"planar2\"\n[limits]\nt_min = 1.0\nt_max = 100.0\n[platform]\nmass = 2.0\ngravity = [0.0, -9.81, 0.0]\n\
+         [[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
+         [[cable]]\nanchor = [-1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
+         [[cable]]\nanchor = [0.0, 1.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("p.csv"), "x,y,fx,fy\n0,0,0,0\n0,0,10,0\n").unwrap();
+    for method in MORE {
+        cdpr_ok(
+            &dir,
+            &["solve", "--robot", "r.toml", "--method", method, "--poses", "p.csv", "--out", "o.csv"],
+        );
+        let (_, rows) = read_csv(&dir.join("o.csv"));
+        let (a, b) = if method == "optimally-safe" {
+            ([19.62, 19.62, 19.62], [19.62, 29.62, 19.62])
+        } else {
+            ([1.0, 1.0, 19.62], [1.0, 11.0, 19.62])
+        };
+        assert_close(&tensions(&rows[0], 3).unwrap(), &a, 1e-9, method);
+        assert_close(&tensions(&rows[1], 3).unwrap(), &b, 1e-9, method);
+    }
 }
 
 /// The barycenter (walk and brute force) of planar-point-4 at poses away
@@ -201,7 +242,7 @@ fn spatial_rows_balance_the_gravity_wrench() {
         let file = robot_file::RobotFile::load(robot(name)).unwrap();
         let m = file.cables.len();
         let mut solved = 0;
-        for method in ALL {
+        for method in ALL.into_iter().chain(MORE) {
             let run = cdpr(
                 &dir,
                 &[

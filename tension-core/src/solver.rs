@@ -8,6 +8,9 @@ use crate::{
     barycenter::{barycenter_brute_factored, barycenter_factored, ActivePair},
     closed_form::{closed_form_factored, improved_closed_form},
     linalg::WrenchFactorization,
+    norms::{min_1_norm_factored, min_2_norm_factored},
+    optimally_safe::optimally_safe_factored,
+    puncture::{improved_puncture, puncture_factored},
     Error, Real, Solution, TensionLimits,
 };
 
@@ -24,16 +27,31 @@ pub enum Method {
     ClosedForm,
     /// `improved-closed-form`: Pott 2013 (any `M >= N`).
     ImprovedClosedForm,
+    /// `puncture`: Müller, Reichert & Bruckmann 2014 (any `M >= N`).
+    Puncture,
+    /// `improved-puncture`: Müller, Reichert & Bruckmann 2014 (any `M >= N`).
+    ImprovedPuncture,
+    /// `min-2-norm`: smallest 2-norm (any `M >= N`).
+    Min2Norm,
+    /// `min-1-norm`: smallest 1-norm (any `M >= N`).
+    Min1Norm,
+    /// `optimally-safe`: Borgstrom et al. 2009 (any `M >= N`).
+    OptimallySafe,
 }
 
 impl Method {
     /// Every method, in the SPEC's order.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 10] = [
         Method::Barycenter,
         Method::BarycenterBrute,
         Method::AnalyticCentre,
         Method::ClosedForm,
         Method::ImprovedClosedForm,
+        Method::Puncture,
+        Method::ImprovedPuncture,
+        Method::Min2Norm,
+        Method::Min1Norm,
+        Method::OptimallySafe,
     ];
 
     /// The SPEC's name.
@@ -44,6 +62,11 @@ impl Method {
             Method::AnalyticCentre => "analytic-centre",
             Method::ClosedForm => "closed-form",
             Method::ImprovedClosedForm => "improved-closed-form",
+            Method::Puncture => "puncture",
+            Method::ImprovedPuncture => "improved-puncture",
+            Method::Min2Norm => "min-2-norm",
+            Method::Min1Norm => "min-1-norm",
+            Method::OptimallySafe => "optimally-safe",
         }
     }
 
@@ -100,6 +123,7 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         }
         let solution = match self.method {
             Method::ImprovedClosedForm => improved_closed_form(w, f, limits)?,
+            Method::ImprovedPuncture => improved_puncture(w, f, limits)?,
             method => {
                 let fact = WrenchFactorization::new(w)?;
                 match method {
@@ -112,6 +136,10 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
                         limits,
                         self.previous_tensions.as_ref(),
                     )?,
+                    Method::Puncture => puncture_factored(&fact, w, f, limits)?,
+                    Method::Min2Norm => min_2_norm_factored(&fact, f, limits, self.previous_pair)?,
+                    Method::Min1Norm => min_1_norm_factored(&fact, f, limits, self.previous_pair)?,
+                    Method::OptimallySafe => optimally_safe_factored(&fact, f, limits)?,
                     _ => closed_form_factored(&fact, w, f, limits)?,
                 }
             }
