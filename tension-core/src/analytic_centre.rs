@@ -259,7 +259,9 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                 s.sqrt_native()
             };
             let converged = |t: SVector<T, M>| {
-                if !finite(t.as_slice()) {
+                // Limits near the largest float can put W t beyond it: such
+                // a result cannot be checked, so it is not returned.
+                if !finite(t.as_slice()) || !finite((w * t - f).as_slice()) {
                     return Err(Error::NonFinite);
                 }
                 Ok(Solution {
