@@ -12,7 +12,7 @@ use nalgebra::{SMatrix, SVector, Vector2};
 pub use crate::polygon::{ActivePair, Bound};
 use crate::{
     linalg::WrenchFactorization,
-    polygon::{FeasiblePolygon, PolygonCentroid},
+    polygon::{FeasiblePolygon, PolygonSummary, VertexList},
     scalar::finite,
     solution::{robustness, Diagnostics, Solution, WarmStart},
     Error, Real, TensionLimits,
@@ -60,7 +60,7 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
 
     fn solution(
         &self,
-        found: &PolygonCentroid<T, M>,
+        found: &PolygonSummary<T>,
         limits: &TensionLimits<T, M>,
         warm: Option<ActivePair>,
     ) -> Result<Solution<T, M>, Error> {
@@ -75,7 +75,7 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
             tensions,
             robustness,
             diagnostics: Diagnostics {
-                vertices: found.vertices.len() as u8,
+                vertices: found.vertices as u8,
                 warm_start: match (warm, found.warm_start_held) {
                     (None, _) => WarmStart::NotGiven,
                     (Some(_), true) => WarmStart::Held,
@@ -114,7 +114,8 @@ pub fn barycenter_factored<T: Real, const N: usize, const M: usize>(
     warm: Option<ActivePair>,
 ) -> Result<Solution<T, M>, Error> {
     let poly = TensionPolygon::new(fact, f, limits)?;
-    let found = poly.polygon.walk(warm)?;
+    let mut vertices = VertexList::new();
+    let found = poly.polygon.walk_into(warm, &mut vertices)?;
     poly.solution(&found, limits, warm)
 }
 
@@ -138,6 +139,7 @@ pub fn barycenter_brute_factored<T: Real, const N: usize, const M: usize>(
     limits: &TensionLimits<T, M>,
 ) -> Result<Solution<T, M>, Error> {
     let poly = TensionPolygon::new(fact, f, limits)?;
-    let found = poly.polygon.brute_force()?;
+    let mut vertices = VertexList::new();
+    let found = poly.polygon.brute_force_into(&mut vertices)?;
     poly.solution(&found, limits, None)
 }

@@ -128,6 +128,29 @@ pub(crate) fn finite<T: Real>(values: &[T]) -> bool {
     values.iter().fold(true, |ok, v| ok & v.is_finite())
 }
 
+/// The larger of `a` and `b` by a plain comparison (`b` when they are
+/// unordered). `f32::max` is a call to libm's software `fmaxf` on the
+/// Cortex-M4F, whose FPU has no `vmaxnm`.
+#[inline(always)]
+pub(crate) fn max<T: Real>(a: T, b: T) -> T {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The smaller of `a` and `b` by a plain comparison (`b` when they are
+/// unordered); see [`max`].
+#[inline(always)]
+pub(crate) fn min<T: Real>(a: T, b: T) -> T {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
 /// `true` when every value is finite.
 pub(crate) fn all_finite<T: Real>(values: impl IntoIterator<Item = T>) -> bool {
     values.into_iter().all(|v| v.is_finite())

@@ -101,7 +101,10 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         let solution = match self.method {
             Method::ImprovedClosedForm => improved_closed_form(w, f, limits)?,
             method => {
-                let fact = WrenchFactorization::new(w)?;
+                // Filled in place: no factorisation moved through a `Result`.
+                let mut fact = WrenchFactorization::zeroed();
+                let null_columns = if method == Method::ClosedForm { 0 } else { M - N };
+                fact.factor(w, &[true; M], null_columns)?;
                 match method {
                     Method::Barycenter => barycenter_factored(&fact, f, limits, self.previous_pair)?,
                     Method::BarycenterBrute => barycenter_brute_factored(&fact, f, limits)?,
