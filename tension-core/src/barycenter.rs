@@ -36,21 +36,41 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
         f: &SVector<T, N>,
         limits: &TensionLimits<T, M>,
     ) -> Result<Self, Error> {
+        let mut poly = Self::zeroed();
+        poly.set(fact, f, limits)?;
+        Ok(poly)
+    }
+
+    fn zeroed() -> Self {
+        Self { particular: SVector::zeros(), rows: [Vector2::zeros(); M], polygon: FeasiblePolygon::zeroed() }
+    }
+
+    /// [`Self::new`] in place (nothing large moves through a `Result`).
+    fn set(
+        &mut self,
+        fact: &WrenchFactorization<T, N, M>,
+        f: &SVector<T, N>,
+        limits: &TensionLimits<T, M>,
+    ) -> Result<(), Error> {
         if M != N + 2 {
             return Err(Error::UnsupportedShape);
         }
         if !finite(f.as_slice()) {
             return Err(Error::NonFinite);
         }
-        let particular = fact.min_norm_solution(f);
-        if !finite(particular.as_slice()) {
+        self.particular = fact.min_norm_solution(f);
+        if !finite(self.particular.as_slice()) {
             return Err(Error::NonFinite);
         }
-        let rows = fact.null_rows_2();
-        let lower = core::array::from_fn(|k| limits.min()[k] - particular[k]);
-        let upper = core::array::from_fn(|k| limits.max()[k] - particular[k]);
-        let polygon = FeasiblePolygon::new(rows, lower, upper)?;
-        Ok(Self { particular, rows, polygon })
+        let poly = &mut self.polygon;
+        for k in 0..M {
+            let row = Vector2::new(fact.null(k, 0), fact.null(k, 1));
+            self.rows[k] = row;
+            poly.rows[k] = row;
+            poly.lower[k] = limits.min()[k] - self.particular[k];
+            poly.upper[k] = limits.max()[k] - self.particular[k];
+        }
+        poly.prepare()
     }
 
     /// Tensions at null-space coordinates `lambda`.
@@ -113,7 +133,8 @@ pub fn barycenter_factored<T: Real, const N: usize, const M: usize>(
     limits: &TensionLimits<T, M>,
     warm: Option<ActivePair>,
 ) -> Result<Solution<T, M>, Error> {
-    let poly = TensionPolygon::new(fact, f, limits)?;
+    let mut poly = TensionPolygon::zeroed();
+    poly.set(fact, f, limits)?;
     let mut vertices = VertexList::new();
     let found = poly.polygon.walk_into(warm, &mut vertices)?;
     poly.solution(&found, limits, warm)
@@ -138,7 +159,8 @@ pub fn barycenter_brute_factored<T: Real, const N: usize, const M: usize>(
     f: &SVector<T, N>,
     limits: &TensionLimits<T, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let poly = TensionPolygon::new(fact, f, limits)?;
+    let mut poly = TensionPolygon::zeroed();
+    poly.set(fact, f, limits)?;
     let mut vertices = VertexList::new();
     let found = poly.polygon.brute_force_into(&mut vertices)?;
     poly.solution(&found, limits, None)

@@ -23,14 +23,15 @@ use crate::{
 /// `H_k = I - beta_k v_k v_k^T`, never formed: the null-space basis (the last
 /// `M - N` columns of `Q`) and the minimum-norm solutions are obtained by
 /// applying the reflections to vectors, about a quarter of the work of
-/// accumulating `Q`. The reflections are stored in place of `W^T`, as LAPACK
-/// does: `v_k` in column `k` from row `k` down, `R` strictly above the
-/// diagonal, the diagonal of `R` apart. The factorisation can be refilled in
-/// place ([`Self::factor`]), so a control loop moves no large struct.
+/// accumulating `Q`. `R` is kept strictly above the diagonal of the reduced
+/// `W^T` with its diagonal apart. The factorisation can be refilled in place
+/// ([`Self::factor`]), so a control loop moves no large struct.
 #[derive(Debug, Clone)]
 pub struct WrenchFactorization<T: Real, const N: usize, const M: usize> {
-    /// `v_k` on and below the diagonal of column `k`, `R` strictly above.
+    /// `W^T` reduced: `R` strictly above the diagonal (the rest is scratch).
     qr: SMatrix<T, M, N>,
+    /// Householder vectors `v_k` in column `k`, zero above row `k`.
+    v: SMatrix<T, M, N>,
     /// `2 / |v_k|^2`, zero for a skipped (already zero) column.
     beta: SVector<T, N>,
     /// Diagonal of `R`.
@@ -60,7 +61,13 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
 
     /// An all-zero factorisation to be filled by [`Self::factor`].
     pub fn zeroed() -> Self {
-        Self { qr: SMatrix::zeros(), beta: SVector::zeros(), rdiag: SVector::zeros(), z: SMatrix::zeros() }
+        Self {
+            qr: SMatrix::zeros(),
+            v: SMatrix::zeros(),
+            beta: SVector::zeros(),
+            rdiag: SVector::zeros(),
+            z: SMatrix::zeros(),
+        }
     }
 
     /// Refills `self` with the factorisation of `w` restricted to the columns
@@ -79,44 +86,58 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         if !finite(w.as_slice()) {
             return Err(Error::NonFinite);
         }
-        // a = W^T with dropped cables zeroed (M x N), column-major: column j
-        // is [j * M, (j + 1) * M). Zipped sub-slices keep the inner loops
-        // free of index checks.
-        let a_s = self.qr.as_mut_slice();
-        let w_s = w.as_slice();
-        for j in 0..N {
-            for i in 0..M {
-                a_s[j * M + i] = if keep[i] { w_s[i * N + j] } else { T::zero() };
+        // a = W^T with dropped cables zeroed (M x N).
+        self.qr = w.transpose();
+        for (i, &k) in keep.iter().enumerate() {
+            if !k {
+                self.qr.row_mut(i).fill(T::zero());
             }
         }
+        // Column-major slices: column j is [j * M, (j + 1) * M). Every inner
+        // loop runs over whole columns of the constant length M (the
+        // Householder vectors are zero above their first entry, which leaves
+        // the rows above untouched exactly), so the compiler unrolls them.
+        let a_s = self.qr.as_mut_slice();
+        let v_s = self.v.as_mut_slice();
         let mut rmax = T::zero();
-        for k in 0..N {
-            // Householder vector for a[k.., k], stored in its place.
-            let (done, rest) = a_s.split_at_mut((k + 1) * M);
-            let col = &mut done[k * M + k..];
-            let norm2 = dot(col, col);
+        for (k, vk) in v_s.chunks_exact_mut(M).enumerate() {
+            let (done, later) = a_s.split_at_mut((k + 1) * M);
+            let col = &done[k * M..];
+            // Householder vector for a[k.., k].
+            let mut norm2 = T::zero();
+            for (i, (&c, v)) in col.iter().zip(vk.iter_mut()).enumerate() {
+                if i >= k {
+                    norm2 += c * c;
+                    *v = c;
+                } else {
+                    *v = T::zero();
+                }
+            }
             let norm = norm2.sqrt_native();
+            let akk = col[k];
             self.beta[k] = T::zero();
-            let akk = col[0];
+            self.rdiag[k] = akk;
             if norm == T::zero() {
-                self.rdiag[k] = akk; // rank deficiency, caught below
+                vk.fill(T::zero()); // rank deficiency, caught below
                 continue;
             }
             let alpha = if akk >= T::zero() { -norm } else { norm };
             let v0 = akk - alpha;
             let vnorm2 = norm2 - akk * akk + v0 * v0;
-            if vnorm2 == T::zero() {
-                self.rdiag[k] = akk;
-                continue;
+            if vnorm2 == T::zero() || !vnorm2.is_finite() {
+                vk.fill(T::zero());
+                if vnorm2 == T::zero() {
+                    continue;
+                }
+                return Err(Error::NonFinite);
             }
-            col[0] = v0;
+            vk[k] = v0;
             self.rdiag[k] = alpha;
             let b = T::lit(2.0) / vnorm2;
             self.beta[k] = b;
-            let vk = &*col;
-            // a <- H a on rows k.., columns k + 1..
-            for cj in rest.chunks_exact_mut(M) {
-                let cj = &mut cj[k..];
+            let vk = &*vk;
+            // a <- H a on columns k + 1..
+            for cj in later.chunks_exact_mut(M) {
                 let s = dot(vk, cj) * b;
                 for (c, &x) in cj.iter_mut().zip(vk) {
                     *c -= s * x;
@@ -152,13 +173,12 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
 
     /// `x <- Q x = H_1 (H_2 (... H_N x))`.
     fn apply_q(&self, x: &mut SVector<T, M>) {
-        let v_s = self.qr.as_slice();
         let x_s = x.as_mut_slice();
+        let v_s = self.v.as_slice();
         for k in (0..N).rev() {
-            let vk = &v_s[k * M + k..(k + 1) * M];
-            let xk = &mut x_s[k..];
-            let s = dot(vk, xk) * self.beta[k];
-            for (c, &x) in xk.iter_mut().zip(vk) {
+            let vk = &v_s[k * M..(k + 1) * M];
+            let s = dot(vk, x_s) * self.beta[k];
+            for (c, &x) in x_s.iter_mut().zip(vk) {
                 *c -= s * x;
             }
         }

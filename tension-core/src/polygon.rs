@@ -169,10 +169,10 @@ impl<T: Real, const M: usize> PolygonCentroid<T, M> {
 /// The `2 M` half-planes in null-space coordinates.
 #[derive(Debug, Clone)]
 pub struct FeasiblePolygon<T: Real, const M: usize> {
-    rows: [Vector2<T>; M],
+    pub(crate) rows: [Vector2<T>; M],
     norms: [T; M],
-    lower: [T; M],
-    upper: [T; M],
+    pub(crate) lower: [T; M],
+    pub(crate) upper: [T; M],
     used: [bool; M],
     tol: T,
     parallel: T,
@@ -187,19 +187,45 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// is (numerically) zero has a tension fixed by equilibrium: it is checked
     /// against its limits and left out ([`Error::Infeasible`] if outside).
     pub fn new(rows: [Vector2<T>; M], lower: [T; M], upper: [T; M]) -> Result<Self, Error> {
+        let mut poly = Self::zeroed();
+        poly.rows = rows;
+        poly.lower = lower;
+        poly.upper = upper;
+        poly.prepare()?;
+        Ok(poly)
+    }
+
+    /// No half-plane set yet: fill `rows`, `lower`, `upper`, then [`Self::prepare`].
+    pub(crate) fn zeroed() -> Self {
+        let z = [T::zero(); M];
+        Self {
+            rows: [Vector2::zeros(); M],
+            norms: z,
+            lower: z,
+            upper: z,
+            used: [false; M],
+            tol: T::zero(),
+            parallel: T::zero(),
+            ptol: z,
+        }
+    }
+
+    /// Checks `rows`, `lower` and `upper` and derives the rest ([`Self::new`]).
+    pub(crate) fn prepare(&mut self) -> Result<(), Error> {
         if M > 32 {
             return Err(Error::UnsupportedShape);
         }
-        let rows_finite = rows.iter().fold(true, |ok, r| ok & r.x.is_finite() & r.y.is_finite());
-        if !(rows_finite && finite(&lower) && finite(&upper)) {
+        let rows_finite = all_finite(self.rows.iter().flat_map(|r| [r.x, r.y]));
+        if !(rows_finite && finite(&self.lower) && finite(&self.upper)) {
             return Err(Error::NonFinite);
         }
-        let norms: [T; M] = core::array::from_fn(|k| rows[k].norm_squared().sqrt_native());
         let mut scale = T::one();
         let mut row_max = T::zero();
         for k in 0..M {
-            scale = max(scale, max(lower[k].abs(), upper[k].abs()));
-            row_max = max(row_max, norms[k]);
+            let n = self.rows[k].norm_squared().sqrt_native();
+            self.norms[k] = n;
+            scale = max(scale, max(self.lower[k].abs(), self.upper[k].abs()));
+            row_max = max(row_max, n);
         }
         if row_max == T::zero() {
             return Err(Error::Singular);
@@ -207,24 +233,26 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         // Slack tolerance in tension units: rounding of t_p and of N lambda.
         let tol = T::lit(64.0) * T::eps() * scale;
         let row_floor = T::lit(1.0e3) * T::eps() * row_max;
-        let mut used = [true; M];
-        for k in 0..M {
-            if lower[k] > upper[k] {
-                return Err(Error::InvalidLimits);
-            }
-            if norms[k] <= row_floor {
-                if lower[k] > tol || upper[k] < -tol {
-                    return Err(Error::Infeasible);
-                }
-                used[k] = false;
-            }
-        }
         // Lines closer than this to parallel (sine of their angle) are taken
         // as parallel: their crossing is lost in rounding, and the sliver
         // between them is too thin to move the centroid.
         let parallel = T::lit(16.0) * T::eps().sqrt_native();
-        let ptol = norms.map(|n| parallel * n);
-        Ok(Self { rows, norms, lower, upper, used, tol, parallel, ptol })
+        for k in 0..M {
+            if self.lower[k] > self.upper[k] {
+                return Err(Error::InvalidLimits);
+            }
+            self.used[k] = true;
+            if self.norms[k] <= row_floor {
+                if self.lower[k] > tol || self.upper[k] < -tol {
+                    return Err(Error::Infeasible);
+                }
+                self.used[k] = false;
+            }
+            self.ptol[k] = parallel * self.norms[k];
+        }
+        self.tol = tol;
+        self.parallel = parallel;
+        Ok(())
     }
 
     /// The slack tolerance used for "on a line" and "feasible", tension units.
@@ -503,13 +531,27 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
         }
         let mut edge = None;
-        for h in 0..2 * M {
-            if active & (1 << h) == 0 {
-                continue;
+        let mut candidates = active;
+        for _ in 0..2 * M {
+            if candidates == 0 {
+                break;
             }
+            let h = candidates.trailing_zeros() as usize;
+            candidates &= candidates - 1;
             let d = direction(&self.normal(h), self.norms[h / 2]);
-            let blocked = (0..2 * M)
-                .any(|g| g != h && active & (1 << g) != 0 && self.normal(g).dot(&d) > self.ptol[g / 2]);
+            let mut others = active & !(1 << h);
+            let mut blocked = false;
+            for _ in 0..2 * M {
+                if others == 0 {
+                    break;
+                }
+                let g = others.trailing_zeros() as usize;
+                others &= others - 1;
+                if self.normal(g).dot(&d) > self.ptol[g / 2] {
+                    blocked = true;
+                    break;
+                }
+            }
             if !blocked {
                 edge = Some(h);
                 break;
@@ -560,7 +602,9 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // keeps each cable's margin at the new vertex.
             let mut next = None;
             let mut best_cos = big;
-            let mut margins = [big; M];
+            // Smallest and second smallest margin over the cables other than
+            // the edge's, and the cable of the smallest.
+            let (mut m1, mut m2, mut k1) = (big, big, M);
             for k in 0..M {
                 if !self.used[k] {
                     continue;
@@ -568,7 +612,16 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 let dtol = self.ptol[k];
                 let at_w = nv[k] + alpha * nd[k];
                 let (s_lo, s_hi) = (at_w - self.lower[k], self.upper[k] - at_w);
-                margins[k] = min(s_lo, s_hi) / self.norms[k];
+                if k != h / 2 {
+                    let m = min(s_lo, s_hi) / self.norms[k];
+                    if m < m1 {
+                        m2 = m1;
+                        m1 = m;
+                        k1 = k;
+                    } else if m < m2 {
+                        m2 = m;
+                    }
+                }
                 let (g, slack, sign) = if nd[k] > dtol {
                     (2 * k + 1, s_hi, T::one())
                 } else if -nd[k] > dtol {
@@ -596,12 +649,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let (w, error) = self.intersect(h, g).unwrap_or((w_guess, self.tol));
             vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
             // Margin of the new vertex from the slacks along the edge.
-            let mut margin = big;
-            for (k, &m) in margins.iter().enumerate() {
-                if k != h / 2 && k != g / 2 {
-                    margin = min(margin, m);
-                }
-            }
+            let margin = if k1 == g / 2 { m2 } else { m1 };
             if margin > best_margin {
                 best_margin = margin;
                 best_lines = (h as u8, g as u8);

@@ -98,32 +98,36 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         if !self.method.supports(N, M) {
             return Err(Error::UnsupportedShape);
         }
-        let solution = match self.method {
-            Method::ImprovedClosedForm => improved_closed_form(w, f, limits)?,
+        // The result is built once and returned as is (no unwrapping and
+        // re-wrapping of the solution through `?`).
+        let result = match self.method {
+            Method::ImprovedClosedForm => improved_closed_form(w, f, limits),
             method => {
                 // Filled in place: no factorisation moved through a `Result`.
                 let mut fact = WrenchFactorization::zeroed();
                 let null_columns = if method == Method::ClosedForm { 0 } else { M - N };
                 fact.factor(w, &[true; M], null_columns)?;
                 match method {
-                    Method::Barycenter => barycenter_factored(&fact, f, limits, self.previous_pair)?,
-                    Method::BarycenterBrute => barycenter_brute_factored(&fact, f, limits)?,
+                    Method::Barycenter => barycenter_factored(&fact, f, limits, self.previous_pair),
+                    Method::BarycenterBrute => barycenter_brute_factored(&fact, f, limits),
                     Method::AnalyticCentre => AnalyticCentre::default().solve_factored(
                         &fact,
                         w,
                         f,
                         limits,
                         self.previous_tensions.as_ref(),
-                    )?,
-                    _ => closed_form_factored(&fact, w, f, limits)?,
+                    ),
+                    _ => closed_form_factored(&fact, w, f, limits),
                 }
             }
         };
-        if let Some(pair) = solution.diagnostics.active_pair {
-            self.previous_pair = Some(pair);
+        if let Ok(solution) = &result {
+            if let Some(pair) = solution.diagnostics.active_pair {
+                self.previous_pair = Some(pair);
+            }
+            self.previous_tensions = Some(solution.tensions);
         }
-        self.previous_tensions = Some(solution.tensions);
-        Ok(solution)
+        result
     }
 }
 
