@@ -564,33 +564,57 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let mut visited: u64 = 1 << first_edge;
         let mut h = first_edge;
         let mut v = start.point;
-        let mut nv = [T::zero(); M];
-        let mut nd = [T::zero(); M];
+        // The edge that led to `v` (none yet at the first vertex, whose
+        // margin is known).
+        let mut prev = None;
         let big = T::max_value()?;
+        // Per cable, the step to the limit the edge approaches and the rate
+        // n_k . d at which it is approached (zero: never reached).
+        let mut steps = [big; M];
+        let mut rates = [T::zero(); M];
         for _ in 0..=2 * M {
             let a_h = self.normal(h);
             let o = a_h / self.norms[h / 2];
             let d = Vector2::new(-o.y, o.x);
             // Smallest step to another line along the edge (Eqs. 16-19): per
             // cable only the limit the direction approaches can be reached.
+            // The same pass gives the margin of `v` (its smallest slack to
+            // the lines of the cables that do not define it).
             let mut alpha_min = big;
             let mut any = false;
+            let mut margin = big;
             for k in 0..M {
                 if !self.used[k] {
                     continue;
                 }
-                nv[k] = self.rows[k].dot(&v);
-                nd[k] = self.rows[k].dot(&d);
+                let nv = self.rows[k].dot(&v);
+                let nd = self.rows[k].dot(&d);
+                let (s_lo, s_hi) = (nv - self.lower[k], self.upper[k] - nv);
+                if let Some(p) = prev {
+                    if k != h / 2 && k != p / 2 {
+                        margin = min(margin, min(s_lo, s_hi) / self.norms[k]);
+                    }
+                }
                 let dtol = self.ptol[k];
-                let alpha = if nd[k] > dtol && 2 * k + 1 != h {
-                    (self.upper[k] - nv[k]) / nd[k]
-                } else if -nd[k] > dtol && 2 * k != h {
-                    (nv[k] - self.lower[k]) / -nd[k]
+                // The signed rate: positive towards the upper limit.
+                let (alpha, rate) = if nd > dtol && 2 * k + 1 != h {
+                    (s_hi / nd, nd)
+                } else if -nd > dtol && 2 * k != h {
+                    (s_lo / -nd, nd)
                 } else {
+                    rates[k] = T::zero();
                     continue;
                 };
                 any = true;
+                steps[k] = alpha;
+                rates[k] = rate;
                 alpha_min = min(alpha_min, alpha);
+            }
+            if let Some(p) = prev {
+                if margin > best_margin {
+                    best_margin = margin;
+                    best_lines = (p as u8, h as u8);
+                }
             }
             if !any {
                 return None;
@@ -598,38 +622,18 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let alpha = max(alpha_min, T::zero());
             // Among lines reached there (ties: concurrent lines, Sect. 2.3),
             // the edge-supporting one bounds the normal cone: the largest
-            // counter-clockwise angle from the current normal. The same pass
-            // keeps each cable's margin at the new vertex.
+            // counter-clockwise angle from the current normal. A line's slack
+            // at the step is `(step_k - alpha) |n_k . d|`.
             let mut next = None;
             let mut best_cos = big;
-            // Smallest and second smallest margin over the cables other than
-            // the edge's, and the cable of the smallest.
-            let (mut m1, mut m2, mut k1) = (big, big, M);
             for k in 0..M {
-                if !self.used[k] {
+                let rate = rates[k];
+                if rate == T::zero() {
                     continue;
                 }
-                let dtol = self.ptol[k];
-                let at_w = nv[k] + alpha * nd[k];
-                let (s_lo, s_hi) = (at_w - self.lower[k], self.upper[k] - at_w);
-                if k != h / 2 {
-                    let m = min(s_lo, s_hi) / self.norms[k];
-                    if m < m1 {
-                        m2 = m1;
-                        m1 = m;
-                        k1 = k;
-                    } else if m < m2 {
-                        m2 = m;
-                    }
-                }
-                let (g, slack, sign) = if nd[k] > dtol {
-                    (2 * k + 1, s_hi, T::one())
-                } else if -nd[k] > dtol {
-                    (2 * k, s_lo, -T::one())
-                } else {
-                    continue;
-                };
-                if g != h && slack <= self.tol {
+                let (g, sign, speed) =
+                    if rate > T::zero() { (2 * k + 1, T::one(), rate) } else { (2 * k, -T::one(), -rate) };
+                if (steps[k] - alpha) * speed <= self.tol {
                     let cos = sign * self.rows[k].dot(&o) / self.norms[k];
                     if cos < best_cos {
                         best_cos = cos;
@@ -648,12 +652,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let w_guess = v + d * alpha;
             let (w, error) = self.intersect(h, g).unwrap_or((w_guess, self.tol));
             vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
-            // Margin of the new vertex from the slacks along the edge.
-            let margin = if k1 == g / 2 { m2 } else { m1 };
-            if margin > best_margin {
-                best_margin = margin;
-                best_lines = (h as u8, g as u8);
-            }
+            prev = Some(h);
             h = g;
             v = w;
         }
