@@ -392,6 +392,7 @@ mod app {
     fn barycenter_phases(clock: &Tim2Counter) {
         use tension_core::barycenter::TensionPolygon;
         use tension_core::linalg::WrenchFactorization;
+        use tension_core::polygon::VertexList;
         let controller = match Controller::new(Method::Barycenter) {
             Ok(c) => c,
             Err(e) => panic!("robot description rejected: {}", e.status()),
@@ -404,12 +405,16 @@ mod app {
         cortex_m::interrupt::free(|_| {
             for k in 0..CYCLES as u32 {
                 let Ok((w, f)) = controller.wrench(&trajectory::setpoint(k)) else { continue };
+                // Filled in place, as `TensionSolver::solve` does.
                 let t0 = clock.ticks();
-                let Ok(fact) = WrenchFactorization::new(&w) else { continue };
+                let mut fact = WrenchFactorization::zeroed();
+                let Ok(()) = fact.factor(&w, &[true; 8], 2) else { continue };
                 let t1 = clock.ticks();
-                let Ok(poly) = TensionPolygon::new(&fact, &f, &limits) else { continue };
+                let mut poly = TensionPolygon::zeroed();
+                let Ok(()) = poly.set(&fact, &f, &limits) else { continue };
                 let t2 = clock.ticks();
-                let found = poly.polygon.walk(pair);
+                let mut vertices = VertexList::new();
+                let found = poly.polygon.walk_into(pair, &mut vertices);
                 let t3 = clock.ticks();
                 if let Ok(found) = found {
                     pair = Some(found.robust_pair);

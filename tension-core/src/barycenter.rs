@@ -41,12 +41,13 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
         Ok(poly)
     }
 
-    fn zeroed() -> Self {
+    /// An empty polygon to be filled by [`Self::set`].
+    pub fn zeroed() -> Self {
         Self { particular: SVector::zeros(), rows: [Vector2::zeros(); M], polygon: FeasiblePolygon::zeroed() }
     }
 
     /// [`Self::new`] in place (nothing large moves through a `Result`).
-    fn set(
+    pub fn set(
         &mut self,
         fact: &WrenchFactorization<T, N, M>,
         f: &SVector<T, N>,
