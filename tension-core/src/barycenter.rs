@@ -114,7 +114,9 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
 /// previous cycle's active pair when it is given and still a vertex.
 ///
 /// Cost: one Householder factorisation (`O(N^2 M)`), then the walk: with a
-/// held warm start `O(M^2)`; cold, at most `4 C(M,2)` line pairs (`O(M^3)`).
+/// held warm start `O(M^2)`; cold, `O(M^2)` to clip every line against the
+/// other cables, and the exhaustive `4 C(M,2)` line pairs (`O(M^3)`) only for
+/// lines the clipping cannot rule out.
 pub fn barycenter<T: Real, const N: usize, const M: usize>(
     w: &SMatrix<T, N, M>,
     f: &SVector<T, N>,

@@ -457,7 +457,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// vertex (warm start if it still gives a vertex, else the cold search),
     /// and their centroid.
     ///
-    /// Worst case: the cold search (`4 C(M,2)` solves, `O(M^3)`), then at most
+    /// Worst case: the cold search (`O(M^2)` clipping, and `4 C(M,2)` solves,
+    /// `O(M^3)`, only for lines it cannot rule out), then at most
     /// `2 M` walk steps of `O(M)` each, then the `O(M^2)` choice of the
     /// warm-start vertex. Should rounding make the walk revisit an edge, it
     /// falls back to [`Self::brute_force`] (`O(M^3)` too).
