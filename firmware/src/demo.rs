@@ -476,6 +476,7 @@ fn controller(method: Method) -> Controller {
 fn barycenter_phases(clock: &Tim2Counter) {
     use tension_core::barycenter::TensionPolygon;
     use tension_core::linalg::WrenchFactorization;
+    use tension_core::polygon::VertexList;
     let controller = controller(Method::Barycenter);
     let limits = *controller.robot().limits();
     let (mut fact_t, mut poly_t, mut walk_t) = (Running::default(), Running::default(), Running::default());
@@ -484,12 +485,16 @@ fn barycenter_phases(clock: &Tim2Counter) {
     cortex_m::interrupt::free(|_| {
         for k in 0..CYCLES as u32 {
             let Ok((w, f)) = controller.wrench(&trajectory::setpoint(k), &Wrench::zeros()) else { continue };
+            // Filled in place, as `TensionSolver::solve` does.
             let t0 = clock.ticks();
-            let Ok(fact) = WrenchFactorization::new(&w) else { continue };
+            let mut fact = WrenchFactorization::zeroed();
+            let Ok(()) = fact.factor(&w, &[true; 8], 2) else { continue };
             let t1 = clock.ticks();
-            let Ok(poly) = TensionPolygon::new(&fact, &f, &limits) else { continue };
+            let mut poly = TensionPolygon::zeroed();
+            let Ok(()) = poly.set(&fact, &f, &limits) else { continue };
             let t2 = clock.ticks();
-            let found = poly.polygon.walk(pair);
+            let mut vertices = VertexList::new();
+            let found = poly.polygon.walk_into(pair, &mut vertices);
             let t3 = clock.ticks();
             if let Ok(found) = found {
                 pair = Some(found.robust_pair);

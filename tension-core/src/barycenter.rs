@@ -12,7 +12,7 @@ use nalgebra::{SMatrix, SVector, Vector2};
 pub use crate::polygon::{ActivePair, Bound};
 use crate::{
     linalg::WrenchFactorization,
-    polygon::{FeasiblePolygon, PolygonCentroid},
+    polygon::{FeasiblePolygon, PolygonSummary, VertexList},
     scalar::finite,
     solution::{robustness, Diagnostics, Solution, WarmStart},
     Error, Real, TensionLimits,
@@ -36,21 +36,42 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
         f: &SVector<T, N>,
         limits: &TensionLimits<T, M>,
     ) -> Result<Self, Error> {
+        let mut poly = Self::zeroed();
+        poly.set(fact, f, limits)?;
+        Ok(poly)
+    }
+
+    /// An empty polygon to be filled by [`Self::set`].
+    pub fn zeroed() -> Self {
+        Self { particular: SVector::zeros(), rows: [Vector2::zeros(); M], polygon: FeasiblePolygon::zeroed() }
+    }
+
+    /// [`Self::new`] in place (nothing large moves through a `Result`).
+    pub fn set(
+        &mut self,
+        fact: &WrenchFactorization<T, N, M>,
+        f: &SVector<T, N>,
+        limits: &TensionLimits<T, M>,
+    ) -> Result<(), Error> {
         if M != N + 2 {
             return Err(Error::UnsupportedShape);
         }
         if !finite(f.as_slice()) {
             return Err(Error::NonFinite);
         }
-        let particular = fact.min_norm_solution(f);
-        if !finite(particular.as_slice()) {
+        self.particular = fact.min_norm_solution(f);
+        if !finite(self.particular.as_slice()) {
             return Err(Error::NonFinite);
         }
-        let rows = fact.null_rows_2();
-        let lower = core::array::from_fn(|k| limits.min()[k] - particular[k]);
-        let upper = core::array::from_fn(|k| limits.max()[k] - particular[k]);
-        let polygon = FeasiblePolygon::new(rows, lower, upper)?;
-        Ok(Self { particular, rows, polygon })
+        let poly = &mut self.polygon;
+        for k in 0..M {
+            let row = Vector2::new(fact.null(k, 0), fact.null(k, 1));
+            self.rows[k] = row;
+            poly.rows[k] = row;
+            poly.lower[k] = limits.min()[k] - self.particular[k];
+            poly.upper[k] = limits.max()[k] - self.particular[k];
+        }
+        poly.prepare()
     }
 
     /// Tensions at null-space coordinates `lambda`.
@@ -60,7 +81,7 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
 
     fn solution(
         &self,
-        found: &PolygonCentroid<T, M>,
+        found: &PolygonSummary<T>,
         limits: &TensionLimits<T, M>,
         warm: Option<ActivePair>,
     ) -> Result<Solution<T, M>, Error> {
@@ -75,7 +96,7 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
             tensions,
             robustness,
             diagnostics: Diagnostics {
-                vertices: found.vertices.len() as u8,
+                vertices: found.vertices as u8,
                 warm_start: match (warm, found.warm_start_held) {
                     (None, _) => WarmStart::NotGiven,
                     (Some(_), true) => WarmStart::Held,
@@ -93,7 +114,9 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
 /// previous cycle's active pair when it is given and still a vertex.
 ///
 /// Cost: one Householder factorisation (`O(N^2 M)`), then the walk: with a
-/// held warm start `O(M^2)`; cold, at most `4 C(M,2)` line pairs (`O(M^3)`).
+/// held warm start `O(M^2)`; cold, `O(M^2)` to clip every line against the
+/// other cables, and the exhaustive `4 C(M,2)` line pairs (`O(M^3)`) only for
+/// lines the clipping cannot rule out.
 pub fn barycenter<T: Real, const N: usize, const M: usize>(
     w: &SMatrix<T, N, M>,
     f: &SVector<T, N>,
@@ -113,8 +136,10 @@ pub fn barycenter_factored<T: Real, const N: usize, const M: usize>(
     limits: &TensionLimits<T, M>,
     warm: Option<ActivePair>,
 ) -> Result<Solution<T, M>, Error> {
-    let poly = TensionPolygon::new(fact, f, limits)?;
-    let found = poly.polygon.walk(warm)?;
+    let mut poly = TensionPolygon::zeroed();
+    poly.set(fact, f, limits)?;
+    let mut vertices = VertexList::new();
+    let found = poly.polygon.walk_into(warm, &mut vertices)?;
     poly.solution(&found, limits, warm)
 }
 
@@ -137,7 +162,9 @@ pub fn barycenter_brute_factored<T: Real, const N: usize, const M: usize>(
     f: &SVector<T, N>,
     limits: &TensionLimits<T, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let poly = TensionPolygon::new(fact, f, limits)?;
-    let found = poly.polygon.brute_force()?;
+    let mut poly = TensionPolygon::zeroed();
+    poly.set(fact, f, limits)?;
+    let mut vertices = VertexList::new();
+    let found = poly.polygon.brute_force_into(&mut vertices)?;
     poly.solution(&found, limits, None)
 }

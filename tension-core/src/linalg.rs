@@ -23,15 +23,21 @@ use crate::{
 /// `H_k = I - beta_k v_k v_k^T`, never formed: the null-space basis (the last
 /// `M - N` columns of `Q`) and the minimum-norm solutions are obtained by
 /// applying the reflections to vectors, about a quarter of the work of
-/// accumulating `Q`.
+/// accumulating `Q`. `R` is kept strictly above the diagonal of the reduced
+/// `W^T` with its diagonal apart. The factorisation can be refilled in place
+/// ([`Self::factor`]), so a control loop moves no large struct.
 #[derive(Debug, Clone)]
 pub struct WrenchFactorization<T: Real, const N: usize, const M: usize> {
-    /// Householder vectors; column `k` is zero above row `k`.
+    /// `W^T` reduced: `R` strictly above the diagonal (the rest is scratch).
+    qr: SMatrix<T, M, N>,
+    /// Householder vectors `v_k` in column `k`, zero above row `k`.
     v: SMatrix<T, M, N>,
     /// `2 / |v_k|^2`, zero for a skipped (already zero) column.
     beta: SVector<T, N>,
-    r: SMatrix<T, N, N>,
-    /// Null-space basis in columns `0..M - N`.
+    /// Diagonal of `R`.
+    rdiag: SVector<T, N>,
+    /// Null-space basis in columns `0..M - N` (only the first
+    /// [`Self::factor`]'s `null_columns` of them are filled).
     z: SMatrix<T, M, M>,
 }
 
@@ -48,6 +54,32 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
     /// as zero): the reduced problem of the improved closed form, where fixed
     /// cables leave the system (Pott 2013, Eq. 4).
     pub fn with_columns(w: &SMatrix<T, N, M>, keep: &[bool; M]) -> Result<Self, Error> {
+        let mut fact = Self::zeroed();
+        fact.factor(w, keep, M.saturating_sub(N))?;
+        Ok(fact)
+    }
+
+    /// An all-zero factorisation to be filled by [`Self::factor`].
+    pub fn zeroed() -> Self {
+        Self {
+            qr: SMatrix::zeros(),
+            v: SMatrix::zeros(),
+            beta: SVector::zeros(),
+            rdiag: SVector::zeros(),
+            z: SMatrix::zeros(),
+        }
+    }
+
+    /// Refills `self` with the factorisation of `w` restricted to the columns
+    /// marked in `keep` (see [`Self::with_columns`]), and the first
+    /// `null_columns` (at most `M - N`) null-space columns. Same errors as
+    /// [`Self::with_columns`]; on error `self` holds no valid factorisation.
+    pub fn factor(
+        &mut self,
+        w: &SMatrix<T, N, M>,
+        keep: &[bool; M],
+        null_columns: usize,
+    ) -> Result<(), Error> {
         if N == 0 || N > M {
             return Err(Error::UnsupportedShape);
         }
@@ -55,86 +87,110 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             return Err(Error::NonFinite);
         }
         // a = W^T with dropped cables zeroed (M x N).
-        let mut a: SMatrix<T, M, N> = w.transpose();
+        self.qr = w.transpose();
         for (i, &k) in keep.iter().enumerate() {
             if !k {
-                a.row_mut(i).fill(T::zero());
+                self.qr.row_mut(i).fill(T::zero());
             }
         }
-        let mut v: SMatrix<T, M, N> = SMatrix::zeros();
-        let mut beta: SVector<T, N> = SVector::zeros();
-        // Column-major slices: column j is [j * M, (j + 1) * M). Zipped
-        // sub-slices keep the inner loops free of index checks.
-        let a_s = a.as_mut_slice();
-        let v_s = v.as_mut_slice();
-        for k in 0..N {
+        // Column-major slices: column j is [j * M, (j + 1) * M). Every inner
+        // loop runs over whole columns of the constant length M (the
+        // Householder vectors are zero above their first entry, which leaves
+        // the rows above untouched exactly), so the compiler unrolls them.
+        let a_s = self.qr.as_mut_slice();
+        let v_s = self.v.as_mut_slice();
+        let mut rmax = T::zero();
+        for (k, vk) in v_s.chunks_exact_mut(M).enumerate() {
+            let (done, later) = a_s.split_at_mut((k + 1) * M);
+            let col = &done[k * M..];
             // Householder vector for a[k.., k].
-            let col = &a_s[k * M + k..(k + 1) * M];
-            let norm2 = dot(col, col);
-            let norm = norm2.sqrt_native();
-            if norm == T::zero() {
-                continue; // rank deficiency, caught on R's diagonal below
+            let mut norm2 = T::zero();
+            for (i, (&c, v)) in col.iter().zip(vk.iter_mut()).enumerate() {
+                if i >= k {
+                    norm2 += c * c;
+                    *v = c;
+                } else {
+                    *v = T::zero();
+                }
             }
-            let akk = col[0];
-            let alpha = if akk >= T::zero() { -norm } else { norm };
-            let vk = &mut v_s[k * M + k..(k + 1) * M];
-            vk.copy_from_slice(col);
-            vk[0] -= alpha;
-            let vnorm2 = norm2 - akk * akk + vk[0] * vk[0];
-            if vnorm2 == T::zero() {
+            let norm = norm2.sqrt_native();
+            let akk = col[k];
+            self.beta[k] = T::zero();
+            self.rdiag[k] = akk;
+            if norm == T::zero() {
+                vk.fill(T::zero()); // rank deficiency, caught below
                 continue;
             }
+            let alpha = if akk >= T::zero() { -norm } else { norm };
+            let v0 = akk - alpha;
+            let vnorm2 = norm2 - akk * akk + v0 * v0;
+            if vnorm2 == T::zero() || !vnorm2.is_finite() {
+                vk.fill(T::zero());
+                if vnorm2 == T::zero() {
+                    continue;
+                }
+                return Err(Error::NonFinite);
+            }
+            vk[k] = v0;
+            self.rdiag[k] = alpha;
             let b = T::lit(2.0) / vnorm2;
-            beta[k] = b;
-            let vk = &v_s[k * M + k..(k + 1) * M];
-            // a <- H a on rows k.., columns k..
-            for j in k..N {
-                let cj = &mut a_s[j * M + k..(j + 1) * M];
+            self.beta[k] = b;
+            let vk = &*vk;
+            // a <- H a on columns k + 1..
+            for cj in later.chunks_exact_mut(M) {
                 let s = dot(vk, cj) * b;
                 for (c, &x) in cj.iter_mut().zip(vk) {
                     *c -= s * x;
                 }
             }
-        }
-        let mut r: SMatrix<T, N, N> = SMatrix::zeros();
-        let mut rmax = T::zero();
-        for i in 0..N {
-            for j in i..N {
-                r[(i, j)] = a[(i, j)];
+            let d = alpha.abs();
+            if d > rmax {
+                rmax = d;
             }
-            rmax = rmax.max(r[(i, i)].abs());
         }
-        let mut fact = Self { v, beta, r, z: SMatrix::zeros() };
+        if !(finite(self.qr.as_slice()) && finite(self.rdiag.as_slice()) && finite(self.beta.as_slice())) {
+            return Err(Error::NonFinite);
+        }
         // Null-space basis: Z e_k = H_1 ... H_N e_{N+k}.
-        for k in 0..(M - N) {
+        let r = null_columns.min(M - N);
+        for k in 0..r {
             let mut e: SVector<T, M> = SVector::zeros();
             e[N + k] = T::one();
-            fact.apply_q(&mut e);
-            fact.z.set_column(k, &e);
+            self.apply_q(&mut e);
+            self.z.set_column(k, &e);
         }
-        if !(finite(fact.z.as_slice()) && finite(fact.r.as_slice())) {
+        if !finite(&self.z.as_slice()[..r * M]) {
             return Err(Error::NonFinite);
         }
         let threshold = T::lit(16.0) * T::lit(M as f64) * T::eps() * rmax;
         for i in 0..N {
-            if fact.r[(i, i)].abs() <= threshold {
+            if self.rdiag[i].abs() <= threshold {
                 return Err(Error::Singular);
             }
         }
-        Ok(fact)
+        Ok(())
     }
 
     /// `x <- Q x = H_1 (H_2 (... H_N x))`.
     fn apply_q(&self, x: &mut SVector<T, M>) {
-        let v_s = self.v.as_slice();
         let x_s = x.as_mut_slice();
+        let v_s = self.v.as_slice();
         for k in (0..N).rev() {
-            let vk = &v_s[k * M + k..(k + 1) * M];
-            let xk = &mut x_s[k..];
-            let s = dot(vk, xk) * self.beta[k];
-            for (c, &x) in xk.iter_mut().zip(vk) {
+            let vk = &v_s[k * M..(k + 1) * M];
+            let s = dot(vk, x_s) * self.beta[k];
+            for (c, &x) in x_s.iter_mut().zip(vk) {
                 *c -= s * x;
             }
+        }
+    }
+
+    /// Entry `(i, j)` of `R`, `i <= j`.
+    #[cfg(test)]
+    fn r(&self, i: usize, j: usize) -> T {
+        if i == j {
+            self.rdiag[i]
+        } else {
+            self.qr[(i, j)]
         }
     }
 
@@ -145,9 +201,9 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         for i in 0..N {
             let mut s = f[i];
             for k in 0..i {
-                s -= self.r[(k, i)] * t[k];
+                s -= self.qr[(k, i)] * t[k];
             }
-            t[i] = s / self.r[(i, i)];
+            t[i] = s / self.rdiag[i];
         }
         self.apply_q(&mut t);
         t
@@ -247,7 +303,8 @@ mod tests {
         let norm = x.norm();
         fact.apply_q(&mut x);
         assert!((x.norm() - norm).abs() < 1e-14);
-        assert!((fact.r.transpose() * fact.r - w * w.transpose()).amax() < 1e-13);
+        let r = SMatrix::<f64, 3, 3>::from_fn(|i, j| if i <= j { fact.r(i, j) } else { 0.0 });
+        assert!((r.transpose() * r - w * w.transpose()).amax() < 1e-13);
     }
 
     #[test]

@@ -125,12 +125,38 @@ fn libm_round(x: f32) -> f32 {
 /// exit: cheaper than an iterator chain for the small fixed sizes here).
 #[inline]
 pub(crate) fn finite<T: Real>(values: &[T]) -> bool {
-    values.iter().fold(true, |ok, v| ok & v.is_finite())
+    all_finite(values.iter().copied())
 }
 
-/// `true` when every value is finite.
+/// The larger of `a` and `b` by a plain comparison (`b` when they are
+/// unordered). `f32::max` is a call to libm's software `fmaxf` on the
+/// Cortex-M4F, whose FPU has no `vmaxnm`.
+#[inline(always)]
+pub(crate) fn max<T: Real>(a: T, b: T) -> T {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The smaller of `a` and `b` by a plain comparison (`b` when they are
+/// unordered); see [`max`].
+#[inline(always)]
+pub(crate) fn min<T: Real>(a: T, b: T) -> T {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `true` when every value is finite: `0 x` is `0` for a finite `x` and NaN
+/// for an infinite or NaN one, so the sum of the `0 x` is zero exactly when
+/// all are finite (a multiply and an add per value, no branch).
+#[inline]
 pub(crate) fn all_finite<T: Real>(values: impl IntoIterator<Item = T>) -> bool {
-    values.into_iter().all(|v| v.is_finite())
+    values.into_iter().fold(T::zero(), |acc, v| acc + v * T::zero()) == T::zero()
 }
 
 /// `a > b`, false when either is NaN (written as a call so that the NaN case

@@ -60,7 +60,14 @@ pub struct Solution<T: Real, const M: usize> {
 pub fn robustness<T: Real, const M: usize>(t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> T {
     let mut d = T::max_value().unwrap_or_else(T::one);
     for i in 0..M {
-        d = d.min(t[i] - limits.min()[i]).min(limits.max()[i] - t[i]);
+        // Plain comparisons: `f32::min` is a libm call on the Cortex-M4F.
+        let (lo, hi) = (t[i] - limits.min()[i], limits.max()[i] - t[i]);
+        if lo < d {
+            d = lo;
+        }
+        if hi < d {
+            d = hi;
+        }
     }
     d
 }

@@ -121,34 +121,41 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         if !self.method.supports(N, M) {
             return Err(Error::UnsupportedShape);
         }
-        let solution = match self.method {
-            Method::ImprovedClosedForm => improved_closed_form(w, f, limits)?,
-            Method::ImprovedPuncture => improved_puncture(w, f, limits)?,
+        // The result is built once and returned as is (no unwrapping and
+        // re-wrapping of the solution through `?`).
+        let result = match self.method {
+            Method::ImprovedClosedForm => improved_closed_form(w, f, limits),
+            Method::ImprovedPuncture => improved_puncture(w, f, limits),
             method => {
-                let fact = WrenchFactorization::new(w)?;
+                // Filled in place: no factorisation moved through a `Result`.
+                let mut fact = WrenchFactorization::zeroed();
+                let null_columns = if method == Method::ClosedForm { 0 } else { M - N };
+                fact.factor(w, &[true; M], null_columns)?;
                 match method {
-                    Method::Barycenter => barycenter_factored(&fact, f, limits, self.previous_pair)?,
-                    Method::BarycenterBrute => barycenter_brute_factored(&fact, f, limits)?,
+                    Method::Barycenter => barycenter_factored(&fact, f, limits, self.previous_pair),
+                    Method::BarycenterBrute => barycenter_brute_factored(&fact, f, limits),
                     Method::AnalyticCentre => AnalyticCentre::default().solve_factored(
                         &fact,
                         w,
                         f,
                         limits,
                         self.previous_tensions.as_ref(),
-                    )?,
-                    Method::Puncture => puncture_factored(&fact, w, f, limits)?,
-                    Method::Min2Norm => min_2_norm_factored(&fact, f, limits, self.previous_pair)?,
-                    Method::Min1Norm => min_1_norm_factored(&fact, f, limits, self.previous_pair)?,
-                    Method::OptimallySafe => optimally_safe_factored(&fact, f, limits)?,
-                    _ => closed_form_factored(&fact, w, f, limits)?,
+                    ),
+                    Method::Puncture => puncture_factored(&fact, w, f, limits),
+                    Method::Min2Norm => min_2_norm_factored(&fact, f, limits, self.previous_pair),
+                    Method::Min1Norm => min_1_norm_factored(&fact, f, limits, self.previous_pair),
+                    Method::OptimallySafe => optimally_safe_factored(&fact, f, limits),
+                    _ => closed_form_factored(&fact, w, f, limits),
                 }
             }
         };
-        if let Some(pair) = solution.diagnostics.active_pair {
-            self.previous_pair = Some(pair);
+        if let Ok(solution) = &result {
+            if let Some(pair) = solution.diagnostics.active_pair {
+                self.previous_pair = Some(pair);
+            }
+            self.previous_tensions = Some(solution.tensions);
         }
-        self.previous_tensions = Some(solution.tensions);
-        Ok(solution)
+        result
     }
 }
 
