@@ -17,6 +17,11 @@ fn usage() -> String {
     format!("usage: hal-sim --scenario NAME|all --out DIR | --list\nscenarios: {}", names.join(", "))
 }
 
+/// `1.038` or `-`.
+fn seconds(t: Option<f64>) -> String {
+    t.map_or_else(|| "-".into(), |t| format!("{t:.3}"))
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut scenario = None;
@@ -89,13 +94,13 @@ fn main() -> ExitCode {
         );
         if s.event.is_some() {
             println!(
-                "  after the event: displacement max {:.2} mm, drop max {:.2} mm, speed max {:.3} m/s, after the brakes held {:.3} m/s; fault at {:?} s, brakes held at {:?} s",
+                "  after the event: displacement max {:.2} mm, drop max {:.2} mm, speed max {:.3} m/s, after the brakes held {:.3} m/s; fault at {} s, brakes held at {} s",
                 f.displacement * 1e3,
                 f.drop * 1e3,
                 f.speed,
                 f.speed_locked,
-                f.fault_at,
-                f.locked_at
+                seconds(f.fault_at),
+                seconds(f.locked_at)
             );
         }
         for (t, state, reason, hold) in &outcome.transitions {
