@@ -65,6 +65,8 @@ pub struct ControlLoop {
     telemetry_period: u16,
     cycle: u32,
     last_cost: u32,
+    /// The newest setpoint that solved feasibly (what the winches hold).
+    last_feasible: Option<Setpoint>,
 }
 
 impl ControlLoop {
@@ -86,12 +88,18 @@ impl ControlLoop {
             telemetry_period: DEFAULT_TELEMETRY_PERIOD,
             cycle: 0,
             last_cost: 0,
+            last_feasible: None,
         })
     }
 
     /// The controller (robot and solver).
     pub fn controller(&self) -> &Controller {
         &self.controller
+    }
+
+    /// The controller, to configure it (e.g. `Controller::set_friction`).
+    pub fn controller_mut(&mut self) -> &mut Controller {
+        &mut self.controller
     }
 
     /// The supervisor.
@@ -110,6 +118,51 @@ impl ControlLoop {
             Newest::Good(s, _) => Some(s),
             _ => None,
         }
+    }
+
+    /// Cycles since the newest good setpoint arrived (0: this cycle), if
+    /// the newest setpoint frame was good.
+    pub fn newest_setpoint_age(&self) -> Option<u32> {
+        match &self.newest {
+            Newest::Good(_, arrived) => Some(self.cycle.wrapping_sub(*arrived)),
+            _ => None,
+        }
+    }
+
+    /// The newest setpoint that solved feasibly: the one whose torques the
+    /// winches get (Enabled) or hold (Holding).
+    pub fn last_feasible_setpoint(&self) -> Option<&Setpoint> {
+        self.last_feasible.as_ref()
+    }
+
+    /// Supervision from the winch encoders: in Enabled or Holding, compares
+    /// the measured cable `lengths` (m) with the inverse kinematics of the
+    /// last feasible setpoint and enters Fault (`Reason::Tracking`) when one
+    /// differs by more than `limit` (m). Call before [`ControlLoop::step`]
+    /// of the same cycle, which then starts the fault's torque ramp with the
+    /// brakes engaged. Returns the cable with the largest error if it
+    /// faulted. A broken cable shows here within tens of milliseconds (its
+    /// unloaded winch reels in), and so does a winch that cannot deliver
+    /// its torque (its cable pays out as the platform sags).
+    pub fn check_lengths(&mut self, lengths: &[f32; CABLES], limit: f32) -> Option<usize> {
+        if !matches!(self.supervisor.state(), State::Enabled | State::Holding) {
+            return None;
+        }
+        let setpoint = self.last_feasible?;
+        // The setpoint solved, so its kinematics do: only a non-finite
+        // length fails here, which is as bad as a large one.
+        let errors = crate::feedback::length_errors(self.controller.robot(), &setpoint.pose, lengths)
+            .unwrap_or([f32::INFINITY; CABLES]);
+        let (worst, error) = errors
+            .iter()
+            .map(|e| if e.is_nan() { f32::INFINITY } else { libm::fabsf(*e) })
+            .enumerate()
+            .fold((0, 0.0f32), |best, (i, e)| if e > best.1 { (i, e) } else { best });
+        if error > limit && self.supervisor.fault(self.cycle, Reason::Tracking) {
+            self.counters.faults = self.counters.faults.wrapping_add(1);
+            return Some(worst);
+        }
+        None
     }
 
     /// The next cycle's number.
@@ -148,8 +201,11 @@ impl ControlLoop {
         self.last_cost = cost;
     }
 
-    /// One control cycle. `extra` is added to the wrench the cables must
-    /// produce (a feedback wrench; zero for feed-forward only); `overrun`
+    /// One control cycle. `extra` is an external wrench on the platform
+    /// (base frame, about the platform origin) that the cables must balance
+    /// on top of gravity and the setpoint's inertia, so the cables produce
+    /// `-extra` more: pass the negative of a feedback wrench
+    /// (`feedback::TaskPid::update`), zero for feed-forward only; `overrun`
     /// says whether the previous cycle missed its deadline; `clock` times
     /// the controller's phases.
     pub fn step<C: TickCounter, D: WinchDrives>(
@@ -171,7 +227,10 @@ impl ControlLoop {
                 let cycle = self.controller.step(&setpoint, extra, clock);
                 solved = Some(cycle);
                 match cycle.result {
-                    Ok(c) if c.torques.iter().all(|t| t.is_finite()) => SetpointStatus::Feasible(c.torques),
+                    Ok(c) if c.torques.iter().all(|t| t.is_finite()) => {
+                        self.last_feasible = Some(setpoint);
+                        SetpointStatus::Feasible(c.torques)
+                    }
                     Ok(_) => SetpointStatus::Bad,
                     Err(Error::Infeasible) => {
                         self.counters.infeasible = self.counters.infeasible.wrapping_add(1);

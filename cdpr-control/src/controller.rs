@@ -1,9 +1,10 @@
 //! One control cycle: setpoint -> wrench matrix -> required wrench (with the
 //! d'Alembert terms from the setpoint's derivatives) -> tensions -> motor
-//! torques.
+//! torques, optionally with the winches' friction compensated
+//! ([`FrictionCompensation`]).
 
 use tension_core::nalgebra::{SMatrix, SVector};
-use tension_core::{Error, Method, Solution, TensionSolver, WarmStart};
+use tension_core::{Error, Method, Motion, RobotKind, Solution, TensionSolver, WarmStart};
 
 use crate::robot::{Suspended8, CABLES, DOF};
 use crate::trajectory::Setpoint;
@@ -52,11 +53,29 @@ pub struct Cycle {
     pub ticks: PhaseTicks,
 }
 
+/// Winch friction the torques compensate (feed-forward), at the motor
+/// shaft: `tau_f(w) = coulomb tanh(w / coulomb_speed) + viscous w`, with
+/// `w` the motor speed that pays cable out (`l' G / r`, `l'` the cable's
+/// length rate at the setpoint, `-(W^T [v; omega])_i`). Friction opposes
+/// the motion, so the motor torque becomes
+/// `tau = (t - tau_f G / r) r / (G eta) = t r / (G eta) - tau_f / eta`,
+/// still limited to `+-torque_max`. The tensions reported are the solver's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrictionCompensation {
+    /// Coulomb friction torque, N m.
+    pub coulomb: f32,
+    /// Motor speed over which the Coulomb term is smoothed, rad/s (> 0).
+    pub coulomb_speed: f32,
+    /// Viscous friction, N m s/rad.
+    pub viscous: f32,
+}
+
 /// The controller: the robot and a warm-started tension solver. What
 /// reaches the winches is the [`crate::supervisor`]'s decision.
 pub struct Controller {
     robot: Suspended8,
     solver: TensionSolver<f32, CABLES>,
+    friction: Option<FrictionCompensation>,
 }
 
 impl Controller {
@@ -65,7 +84,57 @@ impl Controller {
         if robot.winch().is_none() {
             return Err(Error::UnsupportedShape);
         }
-        Ok(Self { robot, solver: TensionSolver::new(method) })
+        Ok(Self { robot, solver: TensionSolver::new(method), friction: None })
+    }
+
+    /// Compensates winch friction in the torques from now on (`None`, the
+    /// default: no compensation).
+    pub fn set_friction(&mut self, friction: Option<FrictionCompensation>) {
+        self.friction = friction;
+    }
+
+    /// The friction compensation, if any.
+    pub fn friction(&self) -> Option<&FrictionCompensation> {
+        self.friction.as_ref()
+    }
+
+    /// Per cable, the tension-equivalent friction force `tau_f G / r`, N,
+    /// at the setpoint's motion (zero without compensation).
+    fn friction_forces(&self, setpoint: &Setpoint, w: &WrenchMatrix) -> Result<[f32; CABLES], Error> {
+        let mut out = [0.0; CABLES];
+        let (Some(fr), Some(winch)) = (self.friction, self.robot.winch()) else {
+            return Ok(out);
+        };
+        let motion = Motion::from_pose_derivatives(
+            RobotKind::Spatial6,
+            &setpoint.pose,
+            &setpoint.velocity,
+            &setpoint.acceleration,
+        )?;
+        let v = &setpoint.velocity;
+        let omega = motion.angular_velocity;
+        let twist = SVector::<f32, DOF>::from([v[0], v[1], v[2], omega.x, omega.y, omega.z]);
+        let rates = w.transpose() * twist;
+        let ratio = winch.gear_ratio / winch.drum_radius;
+        for (o, rate) in out.iter_mut().zip(rates.iter()) {
+            // l' = -(W^T twist)_i; motor speed paying out.
+            let speed = -rate * ratio;
+            let x = speed / fr.coulomb_speed;
+            // tanh without std: 1 - 2 / (exp(2x) + 1), saturated for large |x|.
+            let tanh = if x > 20.0 {
+                1.0
+            } else if x < -20.0 {
+                -1.0
+            } else {
+                1.0 - 2.0 / (libm::expf(2.0 * x) + 1.0)
+            };
+            *o = (fr.coulomb * tanh + fr.viscous * speed) * ratio;
+        }
+        if out.iter().all(|f| f.is_finite()) {
+            Ok(out)
+        } else {
+            Err(Error::NonFinite)
+        }
     }
 
     /// The robot.
@@ -87,13 +156,23 @@ impl Controller {
         self.solver.solve(w, f, self.robot.limits())
     }
 
-    /// Motor torques for a tension solution.
+    /// Motor torques for a tension solution (no friction compensation).
     pub fn command(&self, solution: &Solution<f32, CABLES>) -> Result<Command, Error> {
+        self.command_with(solution, &[0.0; CABLES])
+    }
+
+    /// Motor torques for a tension solution, each cable's tension lowered
+    /// by `friction` (N) before the conversion.
+    fn command_with(
+        &self,
+        solution: &Solution<f32, CABLES>,
+        friction: &[f32; CABLES],
+    ) -> Result<Command, Error> {
         let winch = self.robot.winch().ok_or(Error::UnsupportedShape)?;
         let mut torques = [0.0; CABLES];
         let mut saturated = 0u8;
         for (i, torque) in torques.iter_mut().enumerate() {
-            let m = winch.motor_torque(solution.tensions[i])?;
+            let m = winch.motor_torque(solution.tensions[i] - friction[i])?;
             *torque = m.torque;
             if m.saturated {
                 saturated |= 1 << i;
@@ -133,7 +212,8 @@ impl Controller {
         let solution = self.solve(&w, &f);
         let t3 = clock.ticks();
         ticks.solver = t3.wrapping_sub(t2);
-        let command = self.command(&solution?);
+        let friction = self.friction_forces(setpoint, &w)?;
+        let command = self.command_with(&solution?, &friction);
         ticks.torques = clock.since(t3);
         command
     }

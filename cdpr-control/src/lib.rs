@@ -9,6 +9,9 @@
 //! * [`link`]: what the serial protocol's frames mean (sequence order,
 //!   value ranges) and the counters of rejected frames;
 //! * [`control_loop`]: the three together, one call per millisecond;
+//! * [`feedback`]: the task-space PID around the trajectory (its wrench is
+//!   `step`'s `extra`) and the cable-length check behind
+//!   [`ControlLoop::check_lengths`];
 //! * [`drives`]: the winch output trait, with an embedded-hal 1.0 PWM adapter;
 //! * [`robot`], [`trajectory`], [`stats`]: the firmware's robot, its demo
 //!   trajectory and allocation-free cost statistics.
@@ -23,6 +26,7 @@
 pub mod control_loop;
 pub mod controller;
 pub mod drives;
+pub mod feedback;
 pub mod link;
 pub mod robot;
 pub mod stats;

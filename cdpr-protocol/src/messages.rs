@@ -78,6 +78,10 @@ pub enum Reason {
     Overruns,
     /// The torque output reported an error (tag 6).
     Output,
+    /// A measured cable length (winch encoder) departed from the length the
+    /// setpoint asks for by more than the tracking limit: a broken or
+    /// slipping cable, or a winch that cannot deliver its torque (tag 7).
+    Tracking,
 }
 
 /// Running counters of the link and the control loop (they wrap at `u32::MAX`).

@@ -142,6 +142,7 @@ fn reason_name(r: Reason) -> &'static str {
         Reason::HoldTimeout => "held too long",
         Reason::Overruns => "deadline overruns",
         Reason::Output => "drive error",
+        Reason::Tracking => "cable length tracking error",
     }
 }
 

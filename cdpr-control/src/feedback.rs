@@ -1,0 +1,239 @@
+//! Closed-loop terms on top of the feed-forward: a task-space PID around the
+//! setpoint trajectory whose wrench the tension distribution (the
+//! barycenter) shares among the cables, and the cable-length check that
+//! turns a broken cable or a winch that cannot deliver its torque into a
+//! fault.
+//!
+//! # Task-space PID ([`TaskPid`])
+//!
+//! With the pose error (base frame)
+//!
+//! * `e_p = p_d - p` (platform origin), `e_v = v_d - v`;
+//! * `e_r`: the rotation vector of `R_d R^T`, taken as
+//!   `vee(E - E^T) / 2` with `E = R_d R^T` (`sin(angle) axis`, exact
+//!   enough for the small errors a tracking robot has), and
+//!   `e_w = omega_d - omega` (`omega_d` from the setpoint's Euler rates,
+//!   `tension_core::Motion::from_pose_derivatives`),
+//!
+//! the feedback force and moment are
+//!
+//! ```text
+//! F = Kp e_p + Kd e_v + Ki integral(e_p)        (acting at the centre of mass)
+//! M = Kp_r e_r + Kd_r e_w + Ki_r integral(e_r)
+//! ```
+//!
+//! each gain a diagonal (per base axis), the integral terms each clamped to
+//! `integral_max` (anti-windup) and accumulated only while the caller says
+//! so (Enabled), and `|F|`, `|M|` scaled down to at most `force_max`,
+//! `moment_max` so that the feedback cannot by itself push a feasible
+//! setpoint out of the tension polygon. The wrench the cables must add is
+//! `(F, M + R c x F)` about the platform origin (the force acts at the
+//! centre of mass `R c`, so it does not tilt the platform).
+//!
+//! [`Gains::triple_pole`] places the three closed-loop poles of each axis
+//! at `-omega` for a rigid body of the platform's mass and inertia:
+//! `s^3 + (Kd/m) s^2 + (Kp/m) s + Ki/m = (s + omega)^3`, i.e.
+//! `Kp = 3 m omega^2`, `Kd = 3 m omega`, `Ki = m omega^3` (and the inertia
+//! about the centre of mass for the rotations). `hal-sim/README.md`
+//! explains the bandwidth chosen.
+//!
+//! # Cable-length check
+//!
+//! [`length_errors`] compares the winch encoders' cable lengths with the
+//! inverse kinematics of a setpoint; `ControlLoop::check_lengths` faults
+//! (`Reason::Tracking`) when one is off by more than a limit.
+
+use tension_core::nalgebra::{Matrix3, Vector3};
+use tension_core::{Error, Motion, RobotKind};
+
+use crate::controller::Wrench;
+use crate::robot::{Suspended8, CABLES};
+use crate::trajectory::{Pose6, Setpoint};
+
+/// Per-axis gains of the task-space PID: `[x, y, z]` for the force (N/m,
+/// N s/m, N/(m s)), `[rx, ry, rz]` for the moment (N m/rad, N m s/rad,
+/// N m/(rad s)), all about base axes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gains {
+    /// Proportional: `[Kp x3, Kp_r x3]`.
+    pub kp: [f32; 6],
+    /// Derivative: `[Kd x3, Kd_r x3]`.
+    pub kd: [f32; 6],
+    /// Integral: `[Ki x3, Ki_r x3]`.
+    pub ki: [f32; 6],
+}
+
+impl Gains {
+    /// The three closed-loop poles of every axis at `-omega_t` (translation)
+    /// and `-omega_r` (rotation), rad/s, for a rigid body of `mass` (kg) and
+    /// principal `inertia` about its centre of mass (kg m^2, per axis).
+    pub fn triple_pole(mass: f32, inertia: [f32; 3], omega_t: f32, omega_r: f32) -> Self {
+        let mut g = Self { kp: [0.0; 6], kd: [0.0; 6], ki: [0.0; 6] };
+        for k in 0..6 {
+            let (m, w) = if k < 3 { (mass, omega_t) } else { (inertia[k - 3], omega_r) };
+            g.kp[k] = 3.0 * m * w * w;
+            g.kd[k] = 3.0 * m * w;
+            g.ki[k] = m * w * w * w;
+        }
+        g
+    }
+}
+
+/// Bounds on the feedback wrench.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeedbackLimits {
+    /// Largest feedback force `|F|`, N.
+    pub force_max: f32,
+    /// Largest feedback moment `|M|`, N m.
+    pub moment_max: f32,
+    /// Largest `|Ki integral(e)|` per axis: N for the forces, N m for the moments.
+    pub integral_max: [f32; 6],
+}
+
+/// The platform's measured motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    /// Pose `[x, y, z, rx, ry, rz]` (SPEC "Poses").
+    pub pose: Pose6,
+    /// Velocity of the platform origin, base frame, m/s.
+    pub velocity: Vector3<f32>,
+    /// Angular velocity, base frame, rad/s.
+    pub angular_velocity: Vector3<f32>,
+}
+
+/// The pose error `[e_p; e_r]` of `measured` from `desired` (base frame, m
+/// and rad): position difference and the rotation vector taking the
+/// measured orientation to the desired one (`sin(angle) axis`).
+pub fn pose_error(robot: &Suspended8, desired: &Pose6, measured: &Pose6) -> Result<[f32; 6], Error> {
+    let (pd, rd) = robot.frame(desired)?;
+    let (p, r) = robot.frame(measured)?;
+    let ep = pd - p;
+    let er = rotation_error(&rd, &r);
+    Ok([ep.x, ep.y, ep.z, er.x, er.y, er.z])
+}
+
+/// `vee(E - E^T) / 2` with `E = R_d R^T`.
+fn rotation_error(rd: &Matrix3<f32>, r: &Matrix3<f32>) -> Vector3<f32> {
+    let e = rd * r.transpose();
+    Vector3::new(e[(2, 1)] - e[(1, 2)], e[(0, 2)] - e[(2, 0)], e[(1, 0)] - e[(0, 1)]) * 0.5
+}
+
+/// Scales `v` down to at most `max` in length.
+fn limit(v: Vector3<f32>, max: f32) -> Vector3<f32> {
+    let n = v.norm();
+    if n > max && n > 0.0 {
+        v * (max / n)
+    } else {
+        v
+    }
+}
+
+/// The task-space PID with its integral state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TaskPid {
+    gains: Gains,
+    limits: FeedbackLimits,
+    /// `Ki integral(e)` per axis (already multiplied by the gain, so that a
+    /// gain change does not jump the output).
+    integral: [f32; 6],
+}
+
+impl TaskPid {
+    /// A PID with zero integral state.
+    pub const fn new(gains: Gains, limits: FeedbackLimits) -> Self {
+        Self { gains, limits, integral: [0.0; 6] }
+    }
+
+    /// The gains.
+    pub fn gains(&self) -> &Gains {
+        &self.gains
+    }
+
+    /// The limits.
+    pub fn limits(&self) -> &FeedbackLimits {
+        &self.limits
+    }
+
+    /// The integral terms `Ki integral(e)`, N and N m.
+    pub fn integral(&self) -> &[f32; 6] {
+        &self.integral
+    }
+
+    /// Forgets the integral (call whenever the loop is not closed: Disabled,
+    /// Fault).
+    pub fn reset(&mut self) {
+        self.integral = [0.0; 6];
+    }
+
+    /// The wrench the cables must add to the feed-forward (base frame,
+    /// about the platform origin) to bring `measured` onto `setpoint`;
+    /// with `integrate`, the integral advances by `dt` seconds first.
+    /// Pass its negative as `ControlLoop::step`'s `extra` (an external
+    /// wrench the cables must balance).
+    pub fn update(
+        &mut self,
+        robot: &Suspended8,
+        setpoint: &Setpoint,
+        measured: &Measured,
+        dt: f32,
+        integrate: bool,
+    ) -> Result<Wrench, Error> {
+        let e = pose_error(robot, &setpoint.pose, &measured.pose)?;
+        let motion = Motion::from_pose_derivatives(
+            RobotKind::Spatial6,
+            &setpoint.pose,
+            &setpoint.velocity,
+            &setpoint.acceleration,
+        )?;
+        let ev = Vector3::new(setpoint.velocity[0], setpoint.velocity[1], setpoint.velocity[2])
+            - measured.velocity;
+        let ew = motion.angular_velocity - measured.angular_velocity;
+        let rates = [ev.x, ev.y, ev.z, ew.x, ew.y, ew.z];
+        if !e.iter().chain(rates.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
+            return Err(Error::NonFinite);
+        }
+        let g = &self.gains;
+        let mut out = [0.0f32; 6];
+        for k in 0..6 {
+            if integrate {
+                let max = self.limits.integral_max[k];
+                self.integral[k] = (self.integral[k] + g.ki[k] * e[k] * dt).clamp(-max, max);
+            }
+            out[k] = g.kp[k] * e[k] + g.kd[k] * rates[k] + self.integral[k];
+        }
+        let force = limit(Vector3::new(out[0], out[1], out[2]), self.limits.force_max);
+        let moment = limit(Vector3::new(out[3], out[4], out[5]), self.limits.moment_max);
+        let (_, r) = robot.frame(&measured.pose)?;
+        let moment = moment + (r * robot.platform().com).cross(&force);
+        Ok(Wrench::from([force.x, force.y, force.z, moment.x, moment.y, moment.z]))
+    }
+}
+
+/// The setpoint `dt` seconds after it was meant for, with constant
+/// acceleration: `pose + v dt + a dt^2 / 2`, `v + a dt`, `a` (sequence
+/// number kept). A PID reference that keeps moving while the stream is
+/// late, instead of stopping dead at the newest setpoint's pose.
+pub fn extrapolate(setpoint: &Setpoint, dt: f32) -> Setpoint {
+    Setpoint {
+        seq: setpoint.seq,
+        pose: setpoint.pose + setpoint.velocity * dt + setpoint.acceleration * (0.5 * dt * dt),
+        velocity: setpoint.velocity + setpoint.acceleration * dt,
+        acceleration: setpoint.acceleration,
+    }
+}
+
+/// Measured minus commanded cable length for every cable, m: `lengths`
+/// from the winch encoders, the commanded ones from the inverse kinematics
+/// of `pose`.
+pub fn length_errors(
+    robot: &Suspended8,
+    pose: &Pose6,
+    lengths: &[f32; CABLES],
+) -> Result<[f32; CABLES], Error> {
+    let cables = robot.cables(pose)?;
+    let mut out = [0.0; CABLES];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = lengths[i] - cables.lengths[i];
+    }
+    Ok(out)
+}

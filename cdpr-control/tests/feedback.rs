@@ -1,0 +1,80 @@
+//! The feedback module and the cable-length supervision through the
+//! control loop.
+
+use cdpr_control::controller::Wrench;
+use cdpr_control::feedback::{extrapolate, length_errors, pose_error};
+use cdpr_control::protocol::{HostMessage, Reason, Setpoint, State};
+use cdpr_control::robot::{suspended8, SETPOINT_RANGE};
+use cdpr_control::supervisor::SafetyLimits;
+use cdpr_control::trajectory::Pose6;
+use cdpr_control::{ControlLoop, NoClock, CABLES};
+use tension_core::Method;
+
+struct Null;
+
+impl cdpr_control::WinchDrives for Null {
+    type Error = ();
+    fn apply(&mut self, _: &[f32; CABLES]) -> Result<(), ()> {
+        Ok(())
+    }
+    fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
+        Ok(())
+    }
+}
+
+const POSE: [f32; 6] = [0.1, -0.2, 1.9, 0.02, -0.01, 0.05];
+
+#[test]
+fn pose_error_is_the_difference_for_small_errors() {
+    let robot = suspended8().unwrap();
+    let desired = Pose6::from(POSE);
+    let mut measured = desired;
+    measured[0] -= 0.003;
+    measured[5] -= 0.002;
+    let e = pose_error(&robot, &desired, &measured).unwrap();
+    assert!((e[0] - 0.003).abs() < 1e-6 && e[1].abs() < 1e-6 && e[2].abs() < 1e-6, "{e:?}");
+    // A small rotation about z: the rotation vector is (almost) along base z.
+    assert!((e[5] - 0.002).abs() < 1e-4 && e[3].abs() < 1e-4 && e[4].abs() < 1e-4, "{e:?}");
+}
+
+#[test]
+fn extrapolation_is_constant_acceleration() {
+    let s = cdpr_control::trajectory::setpoint_at(0.3);
+    let e = extrapolate(&s, 0.01);
+    for k in 0..6 {
+        let p = s.pose[k] + s.velocity[k] * 0.01 + 0.5 * s.acceleration[k] * 1e-4;
+        assert!((e.pose[k] - p).abs() < 1e-6);
+        assert!((e.velocity[k] - (s.velocity[k] + s.acceleration[k] * 0.01)).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn lengths_off_the_setpoint_fault_only_when_enabled() {
+    let robot = suspended8().unwrap();
+    let lengths: [f32; CABLES] = robot.cables(&Pose6::from(POSE)).unwrap().lengths.into();
+    assert!(length_errors(&robot, &Pose6::from(POSE), &lengths).unwrap().iter().all(|e| e.abs() < 1e-6));
+
+    let mut control =
+        ControlLoop::new(robot, Method::Barycenter, SETPOINT_RANGE, SafetyLimits::DEFAULT).unwrap();
+    let setpoint = |seq| Setpoint { seq, pose: POSE, velocity: [0.0; 6], acceleration: [0.0; 6] };
+    control.receive(HostMessage::Setpoint(setpoint(1)));
+    control.step(&NoClock, &mut Null, &Wrench::zeros(), false);
+    let mut off = lengths;
+    off[3] += 0.05;
+    // Disabled: no check.
+    assert_eq!(control.check_lengths(&off, 0.02), None);
+    control.receive(HostMessage::Setpoint(setpoint(2)));
+    control.receive(HostMessage::Enable);
+    assert_eq!(control.step(&NoClock, &mut Null, &Wrench::zeros(), false).state, State::Enabled);
+    // Within the limit: nothing; beyond it: Fault, tracking, from this cycle on.
+    off[3] = lengths[3] + 0.015;
+    assert_eq!(control.check_lengths(&off, 0.02), None);
+    off[3] = lengths[3] + 0.05;
+    assert_eq!(control.check_lengths(&off, 0.02), Some(3));
+    let r = control.step(&NoClock, &mut Null, &Wrench::zeros(), false);
+    assert_eq!((r.state, r.reason, r.brakes), (State::Fault, Reason::Tracking, true));
+    assert_eq!(control.counters().faults, 1);
+    // Latched: a second check does not count another fault.
+    assert_eq!(control.check_lengths(&off, 0.02), None);
+    assert_eq!(control.counters().faults, 1);
+}

@@ -1,0 +1,124 @@
+//! `hal-sim`: runs the closed-loop scenarios and writes their CSV tables
+//! and plots.
+//!
+//! ```text
+//! cargo run -p hal-sim --release -- --scenario NAME|all --out DIR
+//! cargo run -p hal-sim --release -- --list
+//! ```
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use hal_sim::output::{figures, reason_name, state_name, write};
+use hal_sim::{run, Config, Scenario};
+
+fn usage() -> String {
+    let names: Vec<String> = Scenario::all().into_iter().map(|s| s.name).collect();
+    format!("usage: hal-sim --scenario NAME|all --out DIR | --list\nscenarios: {}", names.join(", "))
+}
+
+/// `1.038` or `-`.
+fn seconds(t: Option<f64>) -> String {
+    t.map_or_else(|| "-".into(), |t| format!("{t:.3}"))
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut scenario = None;
+    let mut out = None;
+    let mut i = 0;
+    while i < args.len() {
+        match args[i].as_str() {
+            "--scenario" if i + 1 < args.len() => {
+                scenario = Some(args[i + 1].clone());
+                i += 1;
+            }
+            "--out" if i + 1 < args.len() => {
+                out = Some(PathBuf::from(&args[i + 1]));
+                i += 1;
+            }
+            "--list" => {
+                for s in Scenario::all() {
+                    println!("{:<24} {}", s.name, s.description);
+                }
+                return ExitCode::SUCCESS;
+            }
+            _ => {
+                eprintln!("{}", usage());
+                return ExitCode::from(2);
+            }
+        }
+        i += 1;
+    }
+    let (Some(name), Some(out)) = (scenario, out) else {
+        eprintln!("{}", usage());
+        return ExitCode::from(2);
+    };
+    let scenarios = if name == "all" {
+        Scenario::all()
+    } else {
+        match Scenario::named(&name) {
+            Some(s) => vec![s],
+            None => {
+                eprintln!("unknown scenario {name}\n{}", usage());
+                return ExitCode::from(2);
+            }
+        }
+    };
+    let config = Config::standard();
+    for s in scenarios {
+        let outcome = match run(&s, &config) {
+            Ok(o) => o,
+            Err(e) => {
+                eprintln!("{}: {e}", s.name);
+                return ExitCode::FAILURE;
+            }
+        };
+        let f = figures(&outcome, 0.0);
+        let (csv, png) = match write(&outcome, &out) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("{}: {e}", s.name);
+                return ExitCode::FAILURE;
+            }
+        };
+        println!("{}: {}", s.name, s.description);
+        println!(
+            "  up to the event: position error max {:.3} mm, rotation error max {:.4} deg, tensions {:.2}..{:.2} N (commanded {:.2}..{:.2} N)",
+            f.position_error * 1e3,
+            f.rotation_error.to_degrees(),
+            f.tension_min,
+            f.tension_max,
+            f.commanded.0,
+            f.commanded.1
+        );
+        if s.event.is_some() {
+            println!(
+                "  after the event: displacement max {:.2} mm, drop max {:.2} mm, speed max {:.3} m/s, after the brakes held {:.3} m/s; fault at {} s, brakes held at {} s",
+                f.displacement * 1e3,
+                f.drop * 1e3,
+                f.speed,
+                f.speed_locked,
+                seconds(f.fault_at),
+                seconds(f.locked_at)
+            );
+        }
+        for (t, state, reason, hold) in &outcome.transitions {
+            println!(
+                "  {t:7.3} s: {} ({}, hold reason {})",
+                state_name(*state),
+                reason_name(*reason),
+                reason_name(*hold)
+            );
+        }
+        println!(
+            "  control step on this host: mean {} ns, max {} ns; telemetry samples received {}; {} and {}",
+            outcome.step_ns.0,
+            outcome.step_ns.1,
+            outcome.telemetry.len(),
+            csv.display(),
+            png.display()
+        );
+    }
+    ExitCode::SUCCESS
+}

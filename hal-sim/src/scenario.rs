@@ -1,0 +1,519 @@
+//! Closed-loop runs: the firmware's control loop (`cdpr_control::ControlLoop`,
+//! fed byte by byte through the simulated serial link) with the task-space
+//! PID, against the simulated robot, scripted by a [`Scenario`].
+//!
+//! Every 1 ms cycle, in this order (the firmware's order, plus the two
+//! sensor-based steps it has no hardware for yet):
+//!
+//! 1. the host queues its frames (a setpoint of the reference path every
+//!    cycle while it streams, `Enable` once), the link delivers at most
+//!    100 bytes (1 Mbit/s), each goes to `ControlLoop::receive_byte`;
+//! 2. the plant is sampled: pose and twist (the PID's measurement, taken
+//!    from the simulator state) and the encoders' cable lengths;
+//! 3. `ControlLoop::check_lengths` (cable-length supervision);
+//! 4. the PID's wrench for the newest setpoint, its negative passed as
+//!    `extra` to `ControlLoop::step`, which writes torques and brakes into
+//!    the plant (`WinchDrives`);
+//! 5. telemetry frames go back over the link to the host;
+//! 6. the plant integrates 1 ms (RK4, 0.1 ms steps) with those commands.
+
+use cdpr_control::controller::{FrictionCompensation, Wrench};
+use cdpr_control::feedback::{extrapolate, FeedbackLimits, Gains, Measured, TaskPid};
+use cdpr_control::protocol::{HostMessage, Reason, Setpoint as WireSetpoint, State, Telemetry};
+use cdpr_control::robot::{suspended8, INERTIA, MASS, SETPOINT_RANGE};
+use cdpr_control::supervisor::SafetyLimits;
+use cdpr_control::trajectory::Pose6;
+use cdpr_control::{ControlLoop, TickCounter, CABLES};
+use nalgebra::{SVector, Vector3};
+use tension_core::trajectory::time_law;
+use tension_core::Method;
+
+use crate::link::{Host, SerialLink, SimClock, WallTicks, BYTES_PER_CYCLE_1MBAUD};
+use crate::plant::{CableModel, Derate, Disturbance, Mismatch, Plant, PlantFaults, PlantRobot, WinchModel};
+
+/// Control period, s.
+pub const PERIOD: f64 = 0.001;
+
+/// A pose and its first two time derivatives (SPEC pose order).
+pub type Reference = ([f64; 6], [f64; 6], [f64; 6]);
+
+/// The pose the host asks for over time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Path {
+    /// One pose, at rest.
+    Hold([f64; 6]),
+    /// From `base` (at rest), one closed loop of `period` s starting at
+    /// `start` s, back to `base` at rest: with `phi = 2 pi s(u)`, `s` the
+    /// 7th-degree time law and `u = (t - start) / period`, the pose is
+    /// `base + [AX sin phi, AY sin 2 phi, AZ (1 - cos phi), RX sin 2 phi,
+    /// RY sin phi, RZ sin phi]` with the amplitudes of [`LOOP_AMPLITUDES`].
+    Loop {
+        /// Start and end pose.
+        base: [f64; 6],
+        /// Start time, s.
+        start: f64,
+        /// Duration, s.
+        period: f64,
+    },
+    /// `from` until `at` s, then `to` (both at rest): a step.
+    Jump {
+        /// Before the step.
+        from: [f64; 6],
+        /// After the step.
+        to: [f64; 6],
+        /// Step time, s.
+        at: f64,
+    },
+}
+
+/// `[AX, AY, AZ, RX, RY, RZ]` of [`Path::Loop`], m and rad.
+pub const LOOP_AMPLITUDES: [f64; 6] = [0.8, 0.35, 0.35, 0.05, 0.05, 0.1];
+
+impl Path {
+    /// The reference at time `t`, s.
+    pub fn at(&self, t: f64) -> Reference {
+        match *self {
+            Path::Hold(p) => (p, [0.0; 6], [0.0; 6]),
+            Path::Jump { from, to, at } => (if t < at { from } else { to }, [0.0; 6], [0.0; 6]),
+            Path::Loop { base, start, period } => {
+                let (s, ds, dds) = time_law((t - start) / period);
+                let tau = 2.0 * core::f64::consts::PI;
+                let (phi, dphi, ddphi): (f64, f64, f64) =
+                    (tau * s, tau * ds / period, tau * dds / (period * period));
+                let a = LOOP_AMPLITUDES;
+                let (s1, c1) = phi.sin_cos();
+                let (s2, c2) = (2.0 * phi).sin_cos();
+                let f = [a[0] * s1, a[1] * s2, a[2] * (1.0 - c1), a[3] * s2, a[4] * s1, a[5] * s1];
+                let df = [a[0] * c1, 2.0 * a[1] * c2, a[2] * s1, 2.0 * a[3] * c2, a[4] * c1, a[5] * c1];
+                let ddf = [-a[0] * s1, -4.0 * a[1] * s2, a[2] * c1, -4.0 * a[3] * s2, -a[4] * s1, -a[5] * s1];
+                let mut out = ([0.0; 6], [0.0; 6], [0.0; 6]);
+                for k in 0..6 {
+                    out.0[k] = base[k] + f[k];
+                    out.1[k] = df[k] * dphi;
+                    out.2[k] = ddf[k] * dphi * dphi + df[k] * ddphi;
+                }
+                out
+            }
+        }
+    }
+
+    /// The pose at time 0 (where the platform starts, at rest).
+    pub fn start(&self) -> [f64; 6] {
+        self.at(0.0).0
+    }
+}
+
+/// One scripted run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Name (`--scenario`), also the output files' stem.
+    pub name: String,
+    /// One line on what it shows.
+    pub description: String,
+    /// Simulated duration, s.
+    pub duration: f64,
+    /// What the host asks for.
+    pub path: Path,
+    /// When the host sends `Enable`, s (the platform starts at rest on its
+    /// brakes at the path's start pose).
+    pub enable_at: f64,
+    /// The host stops streaming setpoints at this time (a lost stream).
+    pub stream_until: Option<f64>,
+    /// Differences between the simulated robot and the robot file.
+    pub mismatch: Mismatch,
+    /// Disturbance wrenches.
+    pub disturbances: Vec<Disturbance>,
+    /// Injected plant faults.
+    pub faults: PlantFaults,
+    /// The time of the injected event (fault, step, lost stream), if any.
+    pub event: Option<f64>,
+}
+
+/// The payload error of every scenario: 2 % heavier than the robot file,
+/// centre of mass 2-3 mm off.
+pub const MISMATCH: Mismatch = Mismatch { mass_factor: 1.02, com_offset: [0.002, -0.002, 0.003] };
+
+/// Static-hold poses of suspended-8 (SPEC pose order).
+pub const HOLD_POSES: [(&str, [f64; 6]); 4] = [
+    ("hold-centre", [0.0, 0.0, 1.8, 0.0, 0.0, 0.0]),
+    ("hold-corner", [0.8, 0.4, 2.0, 0.05, -0.05, 0.1]),
+    ("hold-high", [-0.9, -0.4, 2.4, 0.0, 0.08, -0.2]),
+    ("hold-low", [0.5, -0.6, 1.5, 0.1, 0.0, 0.0]),
+];
+
+/// The pose the fault scenarios (but the lost stream) start from and hold.
+pub const FAULT_POSE: [f64; 6] = [0.4, 0.2, 1.9, 0.03, -0.02, 0.05];
+
+/// The loop the tracking scenarios follow.
+pub const TRACK: Path = Path::Loop { base: [0.0, 0.0, 1.8, 0.0, 0.0, 0.0], start: 0.2, period: 8.0 };
+
+impl Scenario {
+    fn base(name: &str, description: &str, duration: f64, path: Path) -> Self {
+        Self {
+            name: name.into(),
+            description: description.into(),
+            duration,
+            path,
+            enable_at: 0.05,
+            stream_until: None,
+            mismatch: MISMATCH,
+            disturbances: Vec::new(),
+            faults: PlantFaults::default(),
+            event: None,
+        }
+    }
+
+    /// Every scenario: the four static holds, the tracking loop and the five faults.
+    pub fn all() -> Vec<Scenario> {
+        let mut out = Vec::new();
+        for (name, pose) in HOLD_POSES {
+            let mut s = Self::base(
+                name,
+                "static hold for 10 s with a 2 % payload error and a 3-6 s push of (3, -2, 0) N, (0, 0, 0.2) N m",
+                10.05,
+                Path::Hold(pose),
+            );
+            s.disturbances.push(Disturbance {
+                start: 3.0,
+                end: 6.0,
+                wrench: [3.0, -2.0, 0.0, 0.0, 0.0, 0.2],
+            });
+            out.push(s);
+        }
+        out.push(Self::base("track", "one 8 s loop through the workspace and back", 8.5, TRACK));
+
+        let event = 1.0;
+        let mut s =
+            Self::base("cable-break", "cable 1 breaks at 1 s while holding", 2.0, Path::Hold(FAULT_POSE));
+        s.faults.cable_break = Some((0, event));
+        s.event = Some(event);
+        out.push(s);
+
+        let mut s = Self::base(
+            "winch-saturation",
+            "at 1 s drive 3 can deliver only 0.03 N m and reports its current limit",
+            2.0,
+            Path::Hold(FAULT_POSE),
+        );
+        s.faults.derate = Some(Derate { cable: 2, at: event, torque: 0.03, report: true });
+        s.event = Some(event);
+        out.push(s);
+
+        let mut s = Self::base(
+            "infeasible-setpoint",
+            "at 1 s the setpoint jumps to a pose outside the wrench-feasible workspace (z = 3.4 m)",
+            2.0,
+            Path::Jump { from: FAULT_POSE, to: [0.0, 0.0, 3.4, 0.0, 0.0, 0.0], at: event },
+        );
+        s.event = Some(event);
+        out.push(s);
+
+        let mut s = Self::base(
+            "out-of-range-setpoint",
+            "at 1 s the setpoint jumps outside the setpoint range (x = 3 m)",
+            2.0,
+            Path::Jump { from: FAULT_POSE, to: [3.0, 0.0, 1.9, 0.0, 0.0, 0.0], at: event },
+        );
+        s.event = Some(event);
+        out.push(s);
+
+        let mut s = Self::base(
+            "lost-stream",
+            "the host stops streaming at 1 s while holding",
+            2.0,
+            Path::Hold(FAULT_POSE),
+        );
+        s.stream_until = Some(event);
+        s.event = Some(event);
+        out.push(s);
+
+        let stop = 3.0;
+        let mut s = Self::base(
+            "lost-stream-moving",
+            "the host stops streaming at 3 s, mid-loop at 0.9 m/s",
+            4.0,
+            TRACK,
+        );
+        s.stream_until = Some(stop);
+        s.event = Some(stop);
+        out.push(s);
+        out
+    }
+
+    /// The scenario called `name`.
+    pub fn named(name: &str) -> Option<Scenario> {
+        Self::all().into_iter().find(|s| s.name == name)
+    }
+}
+
+/// Settings shared by every run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Config {
+    /// Integration step, s.
+    pub dt: f64,
+    /// Cable-length tracking limit for `ControlLoop::check_lengths`, m.
+    pub length_limit: f32,
+    /// PID gains.
+    pub gains: Gains,
+    /// PID limits.
+    pub limits: FeedbackLimits,
+    /// Link bytes per cycle each way.
+    pub bytes_per_cycle: usize,
+    /// Winch model.
+    pub winch: WinchModel,
+    /// Cable model.
+    pub cable: CableModel,
+    /// The friction the controller compensates.
+    pub friction: Option<FrictionCompensation>,
+}
+
+/// The controller's friction model: 80 % of the simulated winches'
+/// Coulomb and viscous friction (an identification that is 20 % short).
+pub const FRICTION_ESTIMATE: FrictionCompensation = FrictionCompensation {
+    coulomb: 0.8 * WinchModel::DEFAULT.coulomb as f32,
+    coulomb_speed: WinchModel::DEFAULT.coulomb_speed as f32,
+    viscous: 0.8 * WinchModel::DEFAULT.viscous as f32,
+};
+
+/// Closed-loop bandwidth of the PID's translations and rotations: the
+/// triple pole at `-2 pi 5 Hz` (see `hal-sim/README.md`).
+pub const OMEGA: f32 = 2.0 * core::f32::consts::PI * 5.0;
+
+impl Config {
+    /// The settings of `hal-sim/README.md`.
+    pub fn standard() -> Self {
+        Self {
+            dt: 1.0e-4,
+            length_limit: 0.02,
+            gains: Gains::triple_pole(MASS, [INERTIA[0][0], INERTIA[1][1], INERTIA[2][2]], OMEGA, OMEGA),
+            limits: FeedbackLimits {
+                force_max: 50.0,
+                moment_max: 6.0,
+                integral_max: [20.0, 20.0, 20.0, 2.0, 2.0, 2.0],
+            },
+            bytes_per_cycle: BYTES_PER_CYCLE_1MBAUD,
+            winch: WinchModel::DEFAULT,
+            cable: CableModel::DEFAULT,
+            friction: Some(FRICTION_ESTIMATE),
+        }
+    }
+}
+
+/// One control cycle's record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    /// Time at the start of the cycle, s.
+    pub t: f64,
+    /// State after the cycle's step.
+    pub state: State,
+    /// Its reason.
+    pub reason: Reason,
+    /// Brakes commanded.
+    pub brakes: bool,
+    /// Brakes holding the drums (after the engagement delay).
+    pub locked: bool,
+    /// True pose of the platform.
+    pub pose: [f64; 6],
+    /// The host's reference pose at `t`.
+    pub reference: [f64; 6],
+    /// `reference - pose`: position (m) and rotation vector (rad), base frame.
+    pub error: [f64; 6],
+    /// Speed of the platform origin, m/s.
+    pub speed: f64,
+    /// True cable tensions, N.
+    pub tensions: [f64; CABLES],
+    /// Tensions the controller solved for this cycle (NaN when none).
+    pub commanded: [f32; CABLES],
+    /// Torques written to the drives, N m.
+    pub torques: [f32; CABLES],
+    /// The PID's wrench (what the cables add to the feed-forward; base
+    /// frame, about the platform origin), N and N m.
+    pub feedback: [f32; 6],
+}
+
+impl Row {
+    /// `|position error|`, m.
+    pub fn position_error(&self) -> f64 {
+        Vector3::new(self.error[0], self.error[1], self.error[2]).norm()
+    }
+
+    /// Rotation error angle, rad.
+    pub fn rotation_error(&self) -> f64 {
+        Vector3::new(self.error[3], self.error[4], self.error[5]).norm().min(1.0).asin()
+    }
+}
+
+/// Everything a run produced.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The scenario.
+    pub scenario: Scenario,
+    /// One row per cycle.
+    pub rows: Vec<Row>,
+    /// Telemetry as the host decoded it from the link.
+    pub telemetry: Vec<Telemetry>,
+    /// State changes: time, new state, reason, hold reason.
+    pub transitions: Vec<(f64, State, Reason, Reason)>,
+    /// Mean and largest wall-clock time of `ControlLoop::step`, ns.
+    pub step_ns: (u64, u64),
+    /// The control loop's counters at the end.
+    pub counters: cdpr_control::protocol::Counters,
+}
+
+fn to_wire(seq: u32, r: &Reference) -> WireSetpoint {
+    WireSetpoint {
+        seq,
+        pose: r.0.map(|v| v as f32),
+        velocity: r.1.map(|v| v as f32),
+        acceleration: r.2.map(|v| v as f32),
+    }
+}
+
+/// Base-frame error `reference - pose` (position, rotation vector).
+fn pose_error(robot: &PlantRobot, reference: &[f64; 6], pose: &[f64; 6]) -> [f64; 6] {
+    let frame = |p: &[f64; 6]| robot.frame(&SVector::from(*p)).ok();
+    match (frame(reference), frame(pose)) {
+        (Some((pd, rd)), Some((p, r))) => {
+            let e = rd * r.transpose();
+            let ep = pd - p;
+            let er = Vector3::new(e[(2, 1)] - e[(1, 2)], e[(0, 2)] - e[(2, 0)], e[(1, 0)] - e[(0, 1)]) * 0.5;
+            [ep.x, ep.y, ep.z, er.x, er.y, er.z]
+        }
+        _ => [f64::NAN; 6],
+    }
+}
+
+/// The robot file the plant is built from.
+pub fn robot_file_path() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/robots/suspended-8.toml")
+}
+
+/// Loads the robot file as the plant's robot.
+pub fn load_robot() -> Result<PlantRobot, String> {
+    let path = robot_file_path();
+    let file = robot_file::RobotFile::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    file.to_robot::<f64, 6, CABLES>().map_err(|e| format!("{}: {e:?}", path.display()))
+}
+
+/// Runs `scenario` with `config`.
+pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
+    let robot = load_robot()?;
+    let mut plant =
+        Plant::new(robot, config.winch, config.cable, scenario.mismatch, scenario.path.start(), config.dt)
+            .map_err(|e| format!("start pose: {}", e.status()))?;
+    plant.set_faults(scenario.faults);
+    for d in &scenario.disturbances {
+        plant.add_disturbance(*d);
+    }
+    let file_robot = load_robot()?;
+    let controller_robot = suspended8().map_err(|e| format!("controller robot: {}", e.status()))?;
+    let mut control =
+        ControlLoop::new(controller_robot, Method::Barycenter, SETPOINT_RANGE, SafetyLimits::DEFAULT)
+            .map_err(|e| format!("control loop: {}", e.status()))?;
+    control.controller_mut().set_friction(config.friction);
+    let mut pid = TaskPid::new(config.gains, config.limits);
+    let mut link = SerialLink::new(config.bytes_per_cycle);
+    let mut host = Host::new();
+    let mut clock = SimClock::default();
+    let wall = WallTicks::new();
+    let mut frame = [0u8; cdpr_control::protocol::MAX_FRAME];
+
+    let cycles = (scenario.duration / PERIOD).round() as u32;
+    let enable_cycle = (scenario.enable_at / PERIOD).round() as u32;
+    let mut rows = Vec::with_capacity(cycles as usize);
+    let mut transitions = Vec::new();
+    let mut last_state = control.supervisor().state();
+    let (mut step_sum, mut step_max) = (0u64, 0u64);
+    let send = |host: &Host, link: &mut SerialLink, m: HostMessage| {
+        host.send(link, &m).map_err(|e| format!("encode: {e:?}"))
+    };
+    send(&host, &mut link, HostMessage::TelemetryPeriod(10))?;
+
+    for k in 0..cycles {
+        let t = f64::from(k) * PERIOD;
+        let reference = scenario.path.at(t);
+        if scenario.stream_until.is_none_or(|stop| t < stop) {
+            send(&host, &mut link, HostMessage::Setpoint(to_wire(k + 1, &reference)))?;
+        }
+        if k == enable_cycle {
+            send(&host, &mut link, HostMessage::Enable)?;
+        }
+        for b in link.device_read() {
+            control.receive_byte(b);
+        }
+
+        let sample = plant.sample();
+        let lengths = plant.encoder_lengths().map(|l| l as f32);
+        control.check_lengths(&lengths, config.length_limit);
+
+        let state = control.supervisor().state();
+        if matches!(state, State::Disabled | State::Fault) {
+            pid.reset();
+        }
+        let measured = Measured {
+            pose: Pose6::from(sample.pose.map(|v| v as f32)),
+            velocity: sample.velocity.map(|v| v as f32),
+            angular_velocity: sample.angular_velocity.map(|v| v as f32),
+        };
+        // The PID's reference: the newest setpoint, extrapolated over its age.
+        let feedback = match (control.newest_setpoint(), control.newest_setpoint_age()) {
+            (Some(sp), Some(age)) => {
+                let reference = extrapolate(sp, age as f32 * PERIOD as f32);
+                pid.update(
+                    control.controller().robot(),
+                    &reference,
+                    &measured,
+                    PERIOD as f32,
+                    state == State::Enabled,
+                )
+                .unwrap_or_else(|_| Wrench::zeros())
+            }
+            _ => Wrench::zeros(),
+        };
+        let start = wall.ticks();
+        let report = control.step(&clock, &mut plant, &(-feedback), false);
+        let cost = wall.since(start);
+        control.record_cost(cost);
+        step_sum += u64::from(cost);
+        step_max = step_max.max(u64::from(cost));
+        if let Some(tm) = report.telemetry {
+            let n = cdpr_control::protocol::encode(
+                &cdpr_control::protocol::DeviceMessage::Telemetry(tm),
+                &mut frame,
+            )
+            .map_err(|e| format!("encode telemetry: {e:?}"))?;
+            link.device_write(&frame[..n]);
+        }
+        host.receive(&mut link);
+        if report.state != last_state {
+            transitions.push((t, report.state, report.reason, control.supervisor().hold_reason()));
+            last_state = report.state;
+        }
+        let commanded = report.solved.and_then(|c| c.result.ok()).map_or([f32::NAN; CABLES], |c| c.tensions);
+        rows.push(Row {
+            t,
+            state: report.state,
+            reason: report.reason,
+            brakes: report.brakes,
+            locked: sample.locked,
+            pose: sample.pose,
+            reference: reference.0,
+            error: pose_error(&file_robot, &reference.0, &sample.pose),
+            speed: sample.velocity.norm(),
+            tensions: sample.tensions,
+            commanded,
+            torques: report.torques,
+            feedback: feedback.into(),
+        });
+        plant.advance(PERIOD);
+        clock.micros += 1000;
+    }
+    Ok(Outcome {
+        scenario: scenario.clone(),
+        rows,
+        telemetry: host.telemetry,
+        transitions,
+        step_ns: (step_sum / u64::from(cycles.max(1)), step_max),
+        counters: *control.counters(),
+    })
+}
