@@ -24,6 +24,11 @@ use crate::{TickCounter, CABLES};
 /// Telemetry period at start-up, cycles.
 pub const DEFAULT_TELEMETRY_PERIOD: u16 = 10;
 
+/// The index of `method` in `Method::ALL` (the protocol's method number).
+pub fn method_index(method: Method) -> u8 {
+    Method::ALL.iter().position(|&m| m == method).map_or(u8::MAX, |i| i as u8)
+}
+
 /// The newest setpoint the link delivered.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Newest {
@@ -192,6 +197,13 @@ impl ControlLoop {
             Event::Disable => self.requests.disable = true,
             Event::ClearFault => self.requests.clear_fault = true,
             Event::TelemetryPeriod(p) => self.telemetry_period = p,
+            // Only while disabled: a switch in motion would jump the tensions.
+            Event::SelectMethod(method) => {
+                let allowed = self.supervisor.state() == State::Disabled;
+                if !(allowed && self.controller.set_method(method).is_ok()) {
+                    self.counters.rejected_state = self.counters.rejected_state.wrapping_add(1);
+                }
+            }
         }
     }
 
@@ -283,6 +295,7 @@ impl ControlLoop {
                     brakes: output.brakes,
                     step_cost: self.last_cost,
                     counters: self.counters,
+                    method: method_index(self.controller.method()),
                 }
             });
         self.cycle = self.cycle.wrapping_add(1);

@@ -137,6 +137,21 @@ impl Controller {
         }
     }
 
+    /// The method in use.
+    pub fn method(&self) -> Method {
+        self.solver.method()
+    }
+
+    /// Switches to `method` with no warm start;
+    /// [`Error::UnsupportedShape`] if it does not apply to 6 DOF x 8 cables.
+    pub fn set_method(&mut self, method: Method) -> Result<(), Error> {
+        if !method.supports(DOF, CABLES) {
+            return Err(Error::UnsupportedShape);
+        }
+        self.solver = TensionSolver::new(method);
+        Ok(())
+    }
+
     /// The robot.
     pub fn robot(&self) -> &Suspended8 {
         &self.robot

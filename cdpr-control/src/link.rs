@@ -71,6 +71,8 @@ pub enum Event {
     ClearFault,
     /// Telemetry every this many cycles (0: none).
     TelemetryPeriod(u16),
+    /// Switch to this method (already checked to exist).
+    SelectMethod(tension_core::Method),
 }
 
 /// The receiving side of the serial link.
@@ -131,6 +133,13 @@ impl Link {
             HostMessage::Disable => Event::Disable,
             HostMessage::ClearFault => Event::ClearFault,
             HostMessage::TelemetryPeriod(p) => Event::TelemetryPeriod(p),
+            HostMessage::SelectMethod(id) => match tension_core::Method::ALL.get(usize::from(id)) {
+                Some(&method) => Event::SelectMethod(method),
+                None => {
+                    counters.rejected_range = counters.rejected_range.wrapping_add(1);
+                    return None;
+                }
+            },
         };
         counters.accepted = counters.accepted.wrapping_add(1);
         Some(event)

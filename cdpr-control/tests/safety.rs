@@ -477,3 +477,35 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn a_method_is_selected_only_while_disabled() {
+    use cdpr_control::control_loop::method_index;
+    let min_2_norm = method_index(Method::Min2Norm);
+    assert_eq!(Method::ALL[usize::from(min_2_norm)], Method::Min2Norm);
+
+    // Enabled: refused, the barycenter stays.
+    let (mut rig, barycenter) = Rig::enabled();
+    rig.send(HostMessage::SelectMethod(min_2_norm));
+    rig.send(HostMessage::TelemetryPeriod(1));
+    rig.send(HostMessage::Setpoint(low(2)));
+    let t = rig.step().telemetry.unwrap();
+    assert_eq!(t.method, method_index(Method::Barycenter));
+    assert_eq!(rig.control.counters().rejected_state, 1);
+
+    // Disabled: granted; an unknown number is out of range.
+    let mut rig = Rig::new();
+    rig.send(HostMessage::SelectMethod(Method::ALL.len() as u8));
+    assert_eq!(rig.control.counters().rejected_range, 1);
+    rig.send(HostMessage::SelectMethod(min_2_norm));
+    rig.send(HostMessage::TelemetryPeriod(1));
+    rig.send(HostMessage::Setpoint(low(1)));
+    rig.send(HostMessage::Enable);
+    let r = rig.step();
+    assert_eq!((r.state, r.telemetry.unwrap().method), (State::Enabled, min_2_norm));
+    // Minimum-norm tensions: no larger in norm than the barycenter's (which
+    // is feasible too), and not the same point.
+    let norm = |t: &[f32; CABLES]| t.iter().map(|x| x * x).sum::<f32>();
+    assert!(norm(&r.torques) <= norm(&barycenter), "{:?} vs {barycenter:?}", r.torques);
+    assert!(!same(&r.torques, &barycenter));
+}

@@ -40,6 +40,12 @@ pub enum HostMessage {
     ClearFault,
     /// Send telemetry every `period` control cycles; 0 stops it (tag 4).
     TelemetryPeriod(u16),
+    /// Use this tension distribution method from now on (tag 5): the index
+    /// in `tension_core::Method::ALL` (0 barycenter, 1 barycenter-brute,
+    /// 2 analytic-centre, 3 closed-form, 4 improved-closed-form, 5 puncture,
+    /// 6 improved-puncture, 7 min-2-norm, 8 min-1-norm, 9 optimally-safe).
+    /// Accepted in Disabled only.
+    SelectMethod(u8),
 }
 
 /// The safety state machine's states (see the firmware README's diagram).
@@ -137,6 +143,8 @@ pub struct Telemetry {
     pub step_cost: u32,
     /// Counters.
     pub counters: Counters,
+    /// The method in use (index as in [`HostMessage::SelectMethod`]).
+    pub method: u8,
 }
 
 /// Firmware to host.

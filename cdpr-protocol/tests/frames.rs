@@ -73,6 +73,7 @@ fn largest_message_fits() {
             infeasible: u32::MAX,
             faults: u32::MAX,
         },
+        method: u8::MAX,
     };
     let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
     assert!(frame.len() <= MAX_FRAME, "{} bytes", frame.len());
@@ -152,6 +153,7 @@ fn any_host_message() -> impl Strategy<Value = HostMessage> {
         Just(HostMessage::Disable),
         Just(HostMessage::ClearFault),
         any::<u16>().prop_map(HostMessage::TelemetryPeriod),
+        any::<u8>().prop_map(HostMessage::SelectMethod),
     ]
 }
 

@@ -64,7 +64,14 @@ pub fn min_2_norm_factored<T: Real, const N: usize, const M: usize>(
     warm: Option<ActivePair>,
 ) -> Result<Solution<T, M>, Error> {
     if M == N + 2 {
-        return on_polygon(fact, f, limits, warm, Norm::Two);
+        let on_the_polygon = on_polygon(fact, f, limits, warm, Norm::Two);
+        // Near a nearly degenerate vertex (three limit lines almost
+        // concurrent) rounding can put the polygon's optimum beyond a third
+        // limit by more than the tolerance (seen in `f32` on IPAnema 1);
+        // the active-set method below then decides.
+        if !matches!(on_the_polygon, Err(Error::NoConvergence)) {
+            return on_the_polygon;
+        }
     }
     let prob = NullSpaceProblem::new(fact, f, limits)?;
     let p = project(&Constraints::limits(&prob), &SVector::zeros(), prob.tolerance())?;
@@ -90,7 +97,12 @@ pub fn min_1_norm_factored<T: Real, const N: usize, const M: usize>(
     warm: Option<ActivePair>,
 ) -> Result<Solution<T, M>, Error> {
     if M == N + 2 {
-        return on_polygon(fact, f, limits, warm, Norm::One);
+        let on_the_polygon = on_polygon(fact, f, limits, warm, Norm::One);
+        // As for min-2-norm: the active sets decide when rounding put the
+        // polygon's optimum beyond a limit.
+        if !matches!(on_the_polygon, Err(Error::NoConvergence)) {
+            return on_the_polygon;
+        }
     }
     let prob = NullSpaceProblem::new(fact, f, limits)?;
     let tol = prob.tolerance();
@@ -124,7 +136,10 @@ fn on_polygon<T: Real, const N: usize, const M: usize>(
     let found = poly.polygon.walk(warm)?;
     let vertices = &found.vertices;
     let lambda = match norm {
-        Norm::Two => closest_to_origin(vertices.len(), |i| vertices.get(i).point),
+        Norm::Two => {
+            let (p, edge) = closest_to_origin(vertices.len(), |i| vertices.get(i).point);
+            on_edge_line(&poly.polygon, p, edge.map(|(a, b)| (vertices.get(a), vertices.get(b))))
+        }
         Norm::One => {
             // g . lambda = sum t - sum t_p.
             let g = poly.rows.iter().fold(Vector2::zeros(), |a, r| a + r);
@@ -136,9 +151,9 @@ fn on_polygon<T: Real, const N: usize, const M: usize>(
             // The minimising vertices, in order: one vertex or an edge's two ends.
             let chosen = |v: &crate::polygon::Vertex<T>| g.dot(&v.point) <= cut;
             let count = vertices.iter().filter(chosen).count();
-            closest_to_origin(count, |i| {
-                vertices.iter().filter(chosen).nth(i).map_or(Vector2::zeros(), |v| v.point)
-            })
+            let nth = |i: usize| vertices.iter().filter(chosen).nth(i);
+            let (p, edge) = closest_to_origin(count, |i| nth(i).map_or(Vector2::zeros(), |v| v.point));
+            on_edge_line(&poly.polygon, p, edge.and_then(|(a, b)| Some((nth(a)?, nth(b)?))))
         }
     };
     let tensions = poly.tensions(&lambda);
@@ -162,20 +177,49 @@ fn vertex_count<T: Real, const M: usize>(v: &VertexList<T, M>) -> u8 {
     v.len().min(u8::MAX as usize) as u8
 }
 
+/// A point found inside an edge, recomputed as the origin's projection on
+/// the edge's own line (the line both end vertices lie on). Interpolating
+/// between the vertices carries their rounding error, which in `f32` and
+/// between nearly parallel neighbours can put the point beyond that very
+/// limit by many times the polygon's tolerance; the line's own data do not.
+/// Kept as it is when the vertices share no line or the line is degenerate.
+fn on_edge_line<T: Real, const M: usize>(
+    polygon: &crate::polygon::FeasiblePolygon<T, M>,
+    p: Vector2<T>,
+    edge: Option<(crate::polygon::Vertex<T>, crate::polygon::Vertex<T>)>,
+) -> Vector2<T> {
+    let Some((a, b)) = edge else { return p };
+    let shared = [a.lines.0, a.lines.1].into_iter().find(|&h| h == b.lines.0 || h == b.lines.1);
+    let Some(h) = shared else { return p };
+    let (n, c) = polygon.line(usize::from(h));
+    let n2 = n.norm_squared();
+    if greater(n2, T::zero()) {
+        n * (c / n2)
+    } else {
+        p
+    }
+}
+
 /// The point closest to the origin of the convex polygon with the given
 /// vertices in counter-clockwise order (`count >= 1`; a point or a segment
 /// when `count <= 2`): the origin if it is strictly inside, else the closest
-/// point over the edges (each: the projection clamped to the segment).
-pub(crate) fn closest_to_origin<T: Real>(count: usize, vertex: impl Fn(usize) -> Vector2<T>) -> Vector2<T> {
+/// point over the edges (each: the projection clamped to the segment), with
+/// the indices of the edge's two vertices when it lies strictly inside one.
+pub(crate) fn closest_to_origin<T: Real>(
+    count: usize,
+    vertex: impl Fn(usize) -> Vector2<T>,
+) -> (Vector2<T>, Option<(usize, usize)>) {
     if count == 0 {
-        return Vector2::zeros();
+        return (Vector2::zeros(), None);
     }
     let mut inside = count >= 3;
     let mut best = vertex(0);
     let mut best_d = best.norm_squared();
+    let mut best_edge = None;
     for i in 0..count {
+        let j = (i + 1) % count;
         let a = vertex(i);
-        let b = vertex((i + 1) % count);
+        let b = vertex(j);
         let d = b - a;
         // Cross product of the edge with the vector to the origin.
         if !greater(d.x * (-a.y) - d.y * (-a.x), T::zero()) {
@@ -188,12 +232,13 @@ pub(crate) fn closest_to_origin<T: Real>(count: usize, vertex: impl Fn(usize) ->
         if pd < best_d {
             best_d = pd;
             best = p;
+            best_edge = (tau > T::zero() && tau < T::one() && i != j).then_some((i, j));
         }
     }
     if inside {
-        Vector2::zeros()
+        (Vector2::zeros(), None)
     } else {
-        best
+        (best, best_edge)
     }
 }
 

@@ -289,6 +289,12 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         self.used[h / 2]
     }
 
+    /// Half-plane `h`'s line `n . lambda = c` as `(n, c)` (`h = 2 k` is
+    /// cable `k`'s lower limit, `2 k + 1` its upper one).
+    pub(crate) fn line(&self, h: usize) -> (Vector2<T>, T) {
+        (self.normal(h), self.offset(h))
+    }
+
     /// `true` when `p` satisfies every half-plane within the tolerance.
     pub fn contains(&self, p: &Vector2<T>) -> bool {
         (0..2 * M).all(|h| !self.is_used(h) || self.slack(h, p) >= -self.tol)

@@ -207,12 +207,12 @@ impl Session {
 
 /// The host's reference: `f64` barycenter tensions and SPEC motor torques
 /// for a setpoint, from the shared robot file.
-fn reference(robot: &Robot68, s: &Setpoint) -> Result<([f64; 8], [f64; 8]), String> {
+fn reference(robot: &Robot68, method: Method, s: &Setpoint) -> Result<([f64; 8], [f64; 8]), String> {
     let v = |a: &[f32; 6]| SVector::<f64, 6>::from_fn(|i, _| f64::from(a[i]));
     let (w, f) = robot
         .wrench_problem(&v(&s.pose), &SVector::zeros(), Some((&v(&s.velocity), &v(&s.acceleration))))
         .map_err(|e| format!("host kinematics: {}", e.status()))?;
-    let solution = TensionSolver::<f64, 8>::new(Method::Barycenter)
+    let solution = TensionSolver::<f64, 8>::new(method)
         .solve(&w, &f, robot.limits())
         .map_err(|e| format!("host barycenter: {}", e.status()))?;
     let winch = robot.winch().ok_or("no winch in the robot file")?;
@@ -376,6 +376,48 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
             (h, f) => Err(format!("expected Holding(Stale) then Fault: {h:?} / {f:?}")),
         },
     ));
+    // --- 5. Another method, selected over the link while disabled.
+    let ramped = s.wait_for(before, Duration::from_secs(10), |t| {
+        t.state == State::Fault && t.torques.iter().all(|&x| x == 0.0)
+    });
+    let method = Method::Min2Norm;
+    let id = cdpr_control::control_loop::method_index(method);
+    let from = s.telemetry_count();
+    for k in 0..300 {
+        s.send_setpoint(k)?;
+        match k {
+            5 => s.send(&HostMessage::ClearFault)?,
+            10 => s.send(&HostMessage::SelectMethod(id))?,
+            15 => s.send(&HostMessage::Enable)?,
+            _ => {}
+        }
+        thread::sleep(pace);
+    }
+    s.caught_up(from).ok_or("the firmware never reported the setpoints after the method switch")?;
+    let switched = s.telemetry_since(from);
+    let mut worst = 0.0f64;
+    let mut compared_min2 = 0;
+    for t in switched.iter().filter(|t| t.state == State::Enabled && t.solved && t.method == id) {
+        let sent = s.sent.get(&t.setpoint_seq).ok_or("telemetry names an unsent setpoint")?;
+        let (tensions, _) = reference(&robot, method, sent)?;
+        for (&got, &want) in t.tensions.iter().zip(&tensions) {
+            worst = worst.max((f64::from(got) - want).abs());
+        }
+        compared_min2 += 1;
+    }
+    results.push((
+        "method selected over the link (min-2-norm) matches the host's f64".into(),
+        if ramped.is_none() {
+            Err("the stale fault's ramp never finished".into())
+        } else if compared_min2 < 20 {
+            Err(format!("only {compared_min2} enabled min-2-norm samples of {}", switched.len()))
+        } else if worst > tension_tol {
+            Err(format!("worst tension error {worst:.3e} N (tolerance {tension_tol:.3e})"))
+        } else {
+            Ok(format!("{compared_min2} samples, worst |t - t_host| {worst:.2e} N"))
+        },
+    ));
+
     // The references are computed last: the stream must not pause (it
     // would go stale) while the host solves.
     let samples = tracking;
@@ -387,7 +429,7 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
             problems.push(format!("telemetry names setpoint {} that was never sent", t.setpoint_seq));
             continue;
         };
-        let (tensions, torques) = reference(&robot, sent)?;
+        let (tensions, torques) = reference(&robot, Method::Barycenter, sent)?;
         for i in 0..8 {
             worst_tension = worst_tension.max((f64::from(t.tensions[i]) - tensions[i]).abs());
             worst_torque = worst_torque.max((f64::from(t.torques[i]) - torques[i]).abs());
