@@ -40,6 +40,10 @@ pub const CYCLES: usize = trajectory::CYCLES;
 /// Instruction budget of one control step (QEMU; cycles on the board).
 pub const BUDGET: u32 = 20_000;
 
+/// The cycle at which the `inject-panic` / `inject-hardfault` builds fault
+/// (enabled and moving at that point).
+const INJECT_AT: u32 = 1000;
+
 /// Exit code base for a failed run; the low bits say why ([`fail`]).
 pub const EXIT_FAIL: i32 = 32;
 
@@ -261,6 +265,24 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
             }
         }
         breakdown.supervisor_and_drives.push(units(end.wrapping_sub(t_setpoint).saturating_sub(phases)));
+
+        // Fault injection (test builds only): the handlers must stop the
+        // drives, which are commanding torques at this point.
+        if k == INJECT_AT {
+            let (torques, _) = board::drive_outputs();
+            #[cfg(feature = "inject-panic")]
+            {
+                defmt::println!("injecting a panic at cycle {=u32}; drives command {} N m", k, torques);
+                panic!("injected at cycle {}", k);
+            }
+            #[cfg(feature = "inject-hardfault")]
+            {
+                defmt::println!("injecting a HardFault at cycle {=u32}; drives command {} N m", k, torques);
+                cortex_m::asm::udf();
+            }
+            #[cfg(not(any(feature = "inject-panic", feature = "inject-hardfault")))]
+            let _ = torques;
+        }
 
         // The scripted operator: re-enable once the fault's ramp is over
         // and the setpoint is feasible again.

@@ -173,7 +173,15 @@ mod app {
 fn panic(info: &core::panic::PanicInfo) -> ! {
     board::emergency_stop();
     defmt::error!("panic: {}", defmt::Display2Format(info));
+    report_stop();
     board::exit(EXIT_PANIC)
+}
+
+/// What the drives hold after the emergency stop (checked by the test
+/// command's fault-injection runs).
+fn report_stop() {
+    let (torques, brakes) = board::drive_outputs();
+    defmt::error!("drives after the emergency stop: torques {} N m, brakes engaged {=bool}", torques, brakes);
 }
 
 /// Stops the motors, logs the faulting address and exits with
@@ -182,5 +190,6 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     board::emergency_stop();
     defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
+    report_stop();
     board::exit(EXIT_HARDFAULT)
 }

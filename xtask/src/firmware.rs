@@ -61,7 +61,7 @@ pub fn setup() -> Result<(), String> {
 /// An error when the build fails or the firmware does not exit with 0
 /// (the run's figures are printed either way).
 pub fn run_demo() -> Result<(), String> {
-    let run = run_firmware(false)?;
+    let run = run_firmware("demo", false)?;
     match run.code {
         Some(0) => Ok(()),
         code => Err(format!("the firmware {}", explain(code))),
@@ -79,7 +79,7 @@ pub fn run_demo() -> Result<(), String> {
 ///
 /// An error only when the firmware cannot be built or run at all.
 pub fn test() -> Result<(usize, usize), String> {
-    let run = run_firmware(true)?;
+    let run = run_firmware("demo", true)?;
     let crashed = matches!(run.code, None | Some(1) | Some(101) | Some(102));
     let mut passed = 0;
     let mut failed = 0;
@@ -166,6 +166,31 @@ pub fn test() -> Result<(usize, usize), String> {
         },
     );
 
+    // Fault injection: a panic and a HardFault in the middle of the demo
+    // (drives commanding torques) must stop the drives before exiting.
+    for (feature, code, what) in
+        [("inject-panic", EXIT_PANIC, "panic"), ("inject-hardfault", EXIT_HARDFAULT, "HardFault")]
+    {
+        let outcome = run_firmware(feature, true).and_then(|run| {
+            let before = run.lines.iter().find(|l| l.contains("injecting a")).cloned();
+            let after = run.lines.iter().find(|l| l.contains("drives after the emergency stop")).cloned();
+            match (run.code, before, after) {
+                (Some(c), Some(before), Some(after))
+                    if c == code
+                        && stopped(&after)
+                        && !before.contains("[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]") =>
+                {
+                    Ok(format!("exit {c}; {} / {}", before.trim(), after.trim()))
+                }
+                (c, before, after) => Err(format!(
+                    "exit {c:?} (expected {code}), before: {before:?}, after: {after:?}; the firmware {}",
+                    explain(c)
+                )),
+            }
+        });
+        report(&format!("a {what} stops the drives first (zero torque, brakes on)"), outcome);
+    }
+
     // The product build: sizes, then the end-to-end serial test.
     let product = build_product();
     report(
@@ -197,6 +222,21 @@ pub fn test() -> Result<(usize, usize), String> {
     }
 
     Ok((passed, failed))
+}
+
+/// Exit codes of the firmware's panic and HardFault handlers.
+const EXIT_PANIC: i32 = 101;
+const EXIT_HARDFAULT: i32 = 102;
+
+/// Whether the emergency-stop line reports zero torque on every drive and
+/// the brakes engaged.
+fn stopped(line: &str) -> bool {
+    let Some(list) = line.split_once("torques [").and_then(|(_, rest)| rest.split_once(']')) else {
+        return false;
+    };
+    let zeros = list.0.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<Vec<_>, _>>();
+    matches!(zeros, Ok(v) if v.len() == 8 && v.iter().all(|&t| t == 0.0))
+        && line.contains("brakes engaged true")
 }
 
 /// Builds the product firmware (default features: the serial link).
@@ -282,11 +322,11 @@ struct Run {
 
 /// Builds the firmware, then runs it with the configured runner, echoing
 /// its output; with `capture` the lines are also kept for parsing.
-fn run_firmware(capture: bool) -> Result<Run, String> {
+fn run_firmware(features: &str, capture: bool) -> Result<Run, String> {
     if !Path::new("firmware/Cargo.toml").is_file() {
         return Err("run from the workspace root (firmware/Cargo.toml not found)".into());
     }
-    let cargo_args = ["--release", "-p", "firmware", "--target", TARGET, "--features", "demo"];
+    let cargo_args = ["--release", "-p", "firmware", "--target", TARGET, "--features", features];
     run_step(CARGO, &[&["build"][..], &cargo_args].concat())?;
     println!("==> firmware in QEMU (netduinoplus2, -icount shift=3,align=off,sleep=off)");
     let mut child = Command::new(CARGO)
@@ -417,6 +457,9 @@ mod tests {
         assert!(explain(Some(33)).contains("over budget"));
         assert!(explain(Some(48)).contains("state sequence"));
         assert_eq!(parse_stack_line("stack high-water mark: 6520 of 78908 bytes"), Some((6520, 78908)));
+        assert!(stopped("ERROR drives after the emergency stop: torques [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0] N m, brakes engaged true"));
+        assert!(!stopped("drives after the emergency stop: torques [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.1] N m, brakes engaged true"));
+        assert!(!stopped("drives after the emergency stop: torques [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0] N m, brakes engaged false"));
         assert!(explain(Some(101)).contains("panicked"));
     }
 }

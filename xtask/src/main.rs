@@ -76,7 +76,7 @@ fn test() {
     tally.add(check("format", cargo, &["fmt", "--all", "--", "--check"]));
     tally.add(check("clippy (host crates)", cargo, &["clippy", "--all-targets", "--", "-D", "warnings"]));
     // Every build of the firmware: product and demo, QEMU and board.
-    for features in ["", "demo", "board", "board,demo"] {
+    for features in ["", "demo", "board", "board,demo", "inject-panic", "inject-hardfault"] {
         let shown = if features.is_empty() { "default" } else { features };
         tally.add(check(
             &format!("clippy (firmware, features {shown}, thumbv7em-none-eabihf)"),
