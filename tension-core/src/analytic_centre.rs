@@ -27,11 +27,14 @@
 //!
 //! **Infeasible poses.** If the iterates cannot reach `W t = f` (the box
 //! cuts four infeasible-start steps in a row below `1e-3` of the Newton
-//! step, or the iterations run out), a bounded
+//! step, or the iterations run out), the exact minimum-norm search of
+//! [`crate::norms`] (the feasible polygon for `r = 2`, a dual active set
+//! with a Farkas certificate otherwise; bounded) decides: no tensions
+//! ([`Error::Infeasible`]) or tensions Newton could not centre
+//! ([`Error::NoConvergence`]). Should it fail itself, a bounded
 //! projected-gradient search for `min |W t - f|` over the box looks for a
 //! Farkas certificate `y`: `sum_i max(y.w_i t_min_i, y.w_i t_max_i) < y.f`
-//! proves that no tension in the box balances the wrench
-//! ([`Error::Infeasible`]); without one the answer is [`Error::NoConvergence`].
+//! proves that no tension in the box balances the wrench.
 
 use nalgebra::{SMatrix, SVector};
 
@@ -354,11 +357,19 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
                 }
             }
         }
-        if !on_sigma && certify_infeasible(w, f, limits, &t) {
-            return Err(Error::Infeasible);
-        }
-        if !on_sigma && certify_infeasible(w, f, limits, &middle) {
-            return Err(Error::Infeasible);
+        if !on_sigma {
+            // Undecided: the minimum-norm tensions within the limits, found
+            // exactly in a bounded number of steps (the polygon for r = 2,
+            // a dual active set otherwise), settle whether any exist.
+            match crate::norms::min_2_norm_factored(fact, f, limits, None) {
+                Err(Error::Infeasible) => return Err(Error::Infeasible),
+                // Feasible tensions exist; Newton could not centre them.
+                Ok(_) => return Err(Error::NoConvergence),
+                Err(_) => {}
+            }
+            if certify_infeasible(w, f, limits, &t) || certify_infeasible(w, f, limits, &middle) {
+                return Err(Error::Infeasible);
+            }
         }
         Err(Error::NoConvergence)
     }
