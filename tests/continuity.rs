@@ -18,37 +18,9 @@
 //!   sharpest angle between polygon edges; measured: 3.7e-6 of the range on
 //!   suspended-8, so the bound leaves a margin of about 25.
 
-use cdpr_integration_tests::{reference_barycenter, shared_robot};
+use cdpr_integration_tests::{reference_barycenter, shared_robot, trajectory, Sample};
 use nalgebra::{Matrix3, SVector, Vector3};
-use tension_core::{
-    trajectory::time_law, Error, Method, Motion, Platform, Robot, RobotKind, TensionLimits, TensionSolver,
-};
-
-struct Sample<const N: usize> {
-    pose: SVector<f64, N>,
-    velocity: SVector<f64, N>,
-    acceleration: SVector<f64, N>,
-}
-
-/// Through `waypoints` at 1 kHz, each segment timed so that its peak speed
-/// (35/16 of the mean for this time law) is 0.9 m/s or rad/s.
-fn trajectory<const N: usize>(waypoints: &[SVector<f64, N>]) -> Vec<Sample<N>> {
-    let mut out = Vec::new();
-    for pair in waypoints.windows(2) {
-        let delta = pair[1] - pair[0];
-        let seconds = (delta.amax() * 35.0 / 16.0 / 0.9).max(0.1);
-        let steps = (seconds * 1000.0).ceil() as usize;
-        for k in 0..steps {
-            let (s, ds, dds) = time_law(k as f64 / steps as f64);
-            out.push(Sample {
-                pose: pair[0] + delta * s,
-                velocity: delta * (ds / seconds),
-                acceleration: delta * (dds / (seconds * seconds)),
-            });
-        }
-    }
-    out
-}
+use tension_core::{Error, Method, Motion, Platform, Robot, RobotKind, TensionLimits, TensionSolver};
 
 struct Report {
     solved: usize,

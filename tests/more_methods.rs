@@ -16,7 +16,7 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use cdpr_integration_tests::{
-    clip_polygon, random_problem, reference_null_space, reference_particular, shared_robot,
+    clip_polygon, random_problem, reference_particular, shared_robot, trajectory, ReferencePolygon, Sample,
 };
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
@@ -50,90 +50,53 @@ fn assert_valid<const N: usize, const M: usize>(
     }
 }
 
-/// The clipped polygon (r = 2) in the reference's coordinates.
-struct RefPolygon<const M: usize> {
-    z: DMatrix<f64>,
-    tp: DVector<f64>,
-    rows: Vec<[f64; 2]>,
-    lo: Vec<f64>,
-    hi: Vec<f64>,
-    vertices: Vec<[f64; 2]>,
-    area: f64,
+/// The reference's point of smallest norm on the clipped polygon: the
+/// origin if `t_p` is within the limits, else the best projection onto an
+/// edge.
+fn reference_min_2_norm<const M: usize>(poly: &ReferencePolygon<M>) -> [f64; 2] {
+    if (0..M).all(|k| poly.lo[k] <= 0.0 && 0.0 <= poly.hi[k]) {
+        return [0.0, 0.0];
+    }
+    let q = poly.vertices.len();
+    let mut best = poly.vertices[0];
+    for i in 0..q {
+        let (a, b) = (poly.vertices[i], poly.vertices[(i + 1) % q]);
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let len2 = d[0] * d[0] + d[1] * d[1];
+        let s = if len2 > 0.0 { (-(a[0] * d[0] + a[1] * d[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        let p = [a[0] + s * d[0], a[1] + s * d[1]];
+        if p[0] * p[0] + p[1] * p[1] < best[0] * best[0] + best[1] * best[1] {
+            best = p;
+        }
+    }
+    best
 }
 
-impl<const M: usize> RefPolygon<M> {
-    fn new<const N: usize>(
-        w: &SMatrix<f64, N, M>,
-        f: &SVector<f64, N>,
-        limits: &TensionLimits<f64, M>,
-    ) -> Self {
-        assert_eq!(M, N + 2);
-        let z = reference_null_space(w);
-        let tp = reference_particular(w, f);
-        let rows: Vec<[f64; 2]> = (0..M).map(|k| [z[(k, 0)], z[(k, 1)]]).collect();
-        let lo: Vec<f64> = (0..M).map(|k| limits.min()[k] - tp[k]).collect();
-        let hi: Vec<f64> = (0..M).map(|k| limits.max()[k] - tp[k]).collect();
-        // A fixed square that holds the whole polygon (|t| <= |t_max|), as in
-        // `reference_barycenter`: the automatic square grows to 1e15 on an
-        // empty polygon, where rounding leaves slivers.
-        let radius = 4.0 * (limits.max().norm() + tp.norm());
-        let poly = clip_polygon(&rows, &lo, &hi, radius);
-        Self { z, tp, rows, lo, hi, vertices: poly.vertices, area: poly.area }
-    }
-
-    fn tensions(&self, p: [f64; 2]) -> SVector<f64, M> {
-        SVector::from_fn(|k, _| self.tp[k] + self.z[(k, 0)] * p[0] + self.z[(k, 1)] * p[1])
-    }
-
-    /// Relative area, to skip slivers in exact comparisons.
-    fn relative_area(&self, limits: &TensionLimits<f64, M>) -> f64 {
-        self.area / (limits.scale() * limits.scale())
-    }
-
-    /// The point of smallest norm: the origin if `t_p` is within the
-    /// limits, else the best projection onto an edge.
-    fn min_2_norm(&self) -> [f64; 2] {
-        if (0..M).all(|k| self.lo[k] <= 0.0 && 0.0 <= self.hi[k]) {
-            return [0.0, 0.0];
+/// Largest `sigma` with every limit moved inwards by `sigma` leaving a
+/// non-empty polygon: bisection, clipping at each step.
+fn reference_safest_margin<const M: usize>(
+    poly: &ReferencePolygon<M>,
+    limits: &TensionLimits<f64, M>,
+) -> f64 {
+    let nonempty = |sigma: f64| {
+        let lo: Vec<f64> = poly.lo.iter().map(|l| l + sigma).collect();
+        let hi: Vec<f64> = poly.hi.iter().map(|h| h - sigma).collect();
+        if lo.iter().zip(&hi).any(|(l, h)| l > h) {
+            return false;
         }
-        let q = self.vertices.len();
-        let mut best = self.vertices[0];
-        for i in 0..q {
-            let (a, b) = (self.vertices[i], self.vertices[(i + 1) % q]);
-            let d = [b[0] - a[0], b[1] - a[1]];
-            let len2 = d[0] * d[0] + d[1] * d[1];
-            let s = if len2 > 0.0 { (-(a[0] * d[0] + a[1] * d[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
-            let p = [a[0] + s * d[0], a[1] + s * d[1]];
-            if p[0] * p[0] + p[1] * p[1] < best[0] * best[0] + best[1] * best[1] {
-                best = p;
-            }
+        let radius = 4.0 * (limits.max().norm() + poly.tp.norm());
+        !clip_polygon(&poly.rows, &lo, &hi, radius).vertices.is_empty()
+    };
+    let (mut a, mut b) = (0.0, limits.scale());
+    for _ in 0..80 {
+        let mid = 0.5 * (a + b);
+        if nonempty(mid) {
+            a = mid;
+        } else {
+            b = mid;
         }
-        best
     }
-
-    /// Largest `sigma` with every limit moved inwards by `sigma` leaving a
-    /// non-empty polygon: bisection, clipping at each step.
-    fn safest_margin(&self, limits: &TensionLimits<f64, M>) -> f64 {
-        let nonempty = |sigma: f64| {
-            let lo: Vec<f64> = self.lo.iter().map(|l| l + sigma).collect();
-            let hi: Vec<f64> = self.hi.iter().map(|h| h - sigma).collect();
-            if lo.iter().zip(&hi).any(|(l, h)| l > h) {
-                return false;
-            }
-            let radius = 4.0 * (limits.max().norm() + self.tp.norm());
-            !clip_polygon(&self.rows, &lo, &hi, radius).vertices.is_empty()
-        };
-        let (mut a, mut b) = (0.0, limits.scale());
-        for _ in 0..80 {
-            let mid = 0.5 * (a + b);
-            if nonempty(mid) {
-                a = mid;
-            } else {
-                b = mid;
-            }
-        }
-        a
-    }
+    a
 }
 
 /// Runs `cases` random problems, counting which branches were exercised.
@@ -164,7 +127,7 @@ fn polygon_methods<const N: usize, const M: usize>(
     f: SVector<f64, N>,
     limits: TensionLimits<f64, M>,
 ) -> bool {
-    let reference = RefPolygon::<M>::new(&w, &f, &limits);
+    let reference = ReferencePolygon::<M>::new(&w, &f, &limits);
     let scale = limits.scale();
     let results = [
         min_2_norm(&w, &f, &limits, None),
@@ -196,7 +159,7 @@ fn polygon_methods<const N: usize, const M: usize>(
     }
     // min-2-norm: the unique closest point.
     let t2 = results[0].as_ref().unwrap().tensions;
-    let t_ref = reference.tensions(reference.min_2_norm());
+    let t_ref = reference.tensions(reference_min_2_norm(&reference));
     assert!((t2 - t_ref).amax() <= 1e-7 * scale, "min-2-norm {t2:?}\nreference {t_ref:?}");
     // min-1-norm: the smallest sum over the vertices; among tied vertices the
     // answer is no longer (2-norm) than any of them.
@@ -217,7 +180,7 @@ fn polygon_methods<const N: usize, const M: usize>(
     }
     // optimally-safe: the largest smallest slack, by bisection.
     let os = results[2].as_ref().unwrap();
-    let sigma = reference.safest_margin(&limits);
+    let sigma = reference_safest_margin(&reference, &limits);
     assert!(
         (os.robustness - sigma).abs() <= 1e-7 * scale,
         "optimally-safe {} vs bisection {sigma}: {w:?} {f:?} {limits:?}",
@@ -591,26 +554,6 @@ fn improved_puncture_covers_more_poses() {
 
 // --- The workspace border and continuity, on the shared robots ----------
 
-struct Sample<const N: usize> {
-    pose: SVector<f64, N>,
-}
-
-/// Through `waypoints` at 1 kHz, each segment timed for a peak speed of
-/// 0.9 m/s or rad/s (the same time law as tests/continuity.rs).
-fn trajectory<const N: usize>(waypoints: &[SVector<f64, N>]) -> Vec<Sample<N>> {
-    let mut out = Vec::new();
-    for pair in waypoints.windows(2) {
-        let delta = pair[1] - pair[0];
-        let seconds = (delta.amax() * 35.0 / 16.0 / 0.9).max(0.1);
-        let steps = (seconds * 1000.0).ceil() as usize;
-        for k in 0..steps {
-            let (s, _, _) = tension_core::trajectory::time_law(k as f64 / steps as f64);
-            out.push(Sample { pose: pair[0] + delta * s });
-        }
-    }
-    out
-}
-
 #[derive(Debug, Default)]
 struct Run {
     solved: usize,
@@ -656,7 +599,7 @@ fn run<const N: usize, const M: usize>(
                 if exact {
                     assert_eq!(e, Error::Infeasible, "{name} {} sample {k}", method.name());
                     if M == N + 2 {
-                        let reference = RefPolygon::<M>::new(&w, &f, limits);
+                        let reference = ReferencePolygon::<M>::new(&w, &f, limits);
                         assert!(
                             // The barycenter's allowance (tests/continuity.rs): the
                             // walk may miss a sliver at the very border.

@@ -16,7 +16,6 @@
 //! robot is disabled, so a host may renumber from 1 after a disable.
 
 use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage};
-use tension_core::nalgebra::SVector;
 
 use crate::trajectory::Setpoint;
 
@@ -122,12 +121,7 @@ impl Link {
                     counters.rejected_range = counters.rejected_range.wrapping_add(1);
                     return Some(Event::BadSetpoint);
                 }
-                Event::Setpoint(Setpoint {
-                    seq: s.seq,
-                    pose: SVector::from(s.pose),
-                    velocity: SVector::from(s.velocity),
-                    acceleration: SVector::from(s.acceleration),
-                })
+                Event::Setpoint(Setpoint::from(&s))
             }
             HostMessage::Enable => Event::Enable,
             HostMessage::Disable => Event::Disable,

@@ -56,6 +56,30 @@ pub struct Setpoint {
     pub acceleration: Pose6,
 }
 
+impl Setpoint {
+    /// The protocol's form of this setpoint (what a host sends).
+    pub fn to_wire(&self) -> cdpr_protocol::Setpoint {
+        cdpr_protocol::Setpoint {
+            seq: self.seq,
+            pose: self.pose.into(),
+            velocity: self.velocity.into(),
+            acceleration: self.acceleration.into(),
+        }
+    }
+}
+
+impl From<&cdpr_protocol::Setpoint> for Setpoint {
+    /// The setpoint a protocol message carries (unchecked: see `crate::link`).
+    fn from(s: &cdpr_protocol::Setpoint) -> Self {
+        Self {
+            seq: s.seq,
+            pose: SVector::from(s.pose),
+            velocity: SVector::from(s.velocity),
+            acceleration: SVector::from(s.acceleration),
+        }
+    }
+}
+
 /// The setpoint of control cycle `k` (`t = k PERIOD_S`, sequence number `k + 1`).
 pub fn setpoint(k: u32) -> Setpoint {
     Setpoint { seq: k.wrapping_add(1), ..setpoint_at(k as f32 * PERIOD_S) }

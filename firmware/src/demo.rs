@@ -22,7 +22,7 @@
 //! * [`EXIT_FAIL`]` | flags` (32..=63) otherwise, see [`fail`].
 
 use cdpr_control::controller::{Controller, Wrench};
-use cdpr_control::protocol::{HostMessage, Reason, Setpoint as WireSetpoint, State};
+use cdpr_control::protocol::{HostMessage, Reason, State};
 use cdpr_control::robot::suspended8;
 use cdpr_control::stats::{Running, Samples, Summary};
 use cdpr_control::trajectory::{self, Setpoint};
@@ -115,16 +115,6 @@ impl Transitions {
 
     fn as_slice(&self) -> &[State] {
         &self.states[..self.len]
-    }
-}
-
-fn to_wire(s: &Setpoint) -> WireSetpoint {
-    let array = |v: &trajectory::Pose6| core::array::from_fn(|i| v[i]);
-    WireSetpoint {
-        seq: s.seq,
-        pose: array(&s.pose),
-        velocity: array(&s.velocity),
-        acceleration: array(&s.acceleration),
     }
 }
 
@@ -226,7 +216,7 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
         // The measured control step: setpoint -> checks -> solve ->
         // supervisor -> drives.
         let setpoint = trajectory::setpoint(k);
-        control.receive(HostMessage::Setpoint(to_wire(&setpoint)));
+        control.receive(HostMessage::Setpoint(setpoint.to_wire()));
         if operator_enable {
             control.receive(HostMessage::Enable);
         }

@@ -102,6 +102,61 @@ pub fn clip_polygon(rows: &[[f64; 2]], lo: &[f64], hi: &[f64], radius: f64) -> C
     ClippedPolygon { vertices: poly, area, centroid }
 }
 
+/// The feasible polygon of `W t = f` within `limits` (`M = N + 2`) in the
+/// reference's coordinates: `t = tp + z lambda` (eigen-decomposition null
+/// space, SVD particular solution), half-planes `lo_k <= rows_k . lambda <=
+/// hi_k`, clipped inside a fixed square that holds the whole polygon
+/// (`|t| <= |t_max|`; the automatic square of [`clip_polygon_auto`] grows to
+/// 1e15 on an empty polygon, where rounding leaves slivers).
+pub struct ReferencePolygon<const M: usize> {
+    /// Null-space basis, `M x 2`.
+    pub z: DMatrix<f64>,
+    /// Minimum-norm particular solution.
+    pub tp: DVector<f64>,
+    /// Rows of `z`.
+    pub rows: Vec<[f64; 2]>,
+    /// `t_min - tp`.
+    pub lo: Vec<f64>,
+    /// `t_max - tp`.
+    pub hi: Vec<f64>,
+    /// Vertices of the clipped polygon, in order (empty when infeasible).
+    pub vertices: Vec<[f64; 2]>,
+    /// Its area.
+    pub area: f64,
+    /// Its centroid (NaN when the area is not positive).
+    pub centroid: [f64; 2],
+}
+
+impl<const M: usize> ReferencePolygon<M> {
+    /// The polygon of `W t = f` within `limits`.
+    pub fn new<const N: usize>(
+        w: &SMatrix<f64, N, M>,
+        f: &SVector<f64, N>,
+        limits: &TensionLimits<f64, M>,
+    ) -> Self {
+        assert_eq!(M, N + 2);
+        let z = reference_null_space(w);
+        let tp = reference_particular(w, f);
+        let rows: Vec<[f64; 2]> = (0..M).map(|k| [z[(k, 0)], z[(k, 1)]]).collect();
+        let lo: Vec<f64> = (0..M).map(|k| limits.min()[k] - tp[k]).collect();
+        let hi: Vec<f64> = (0..M).map(|k| limits.max()[k] - tp[k]).collect();
+        let radius = 4.0 * (limits.max().norm() + tp.norm());
+        let poly = clip_polygon(&rows, &lo, &hi, radius);
+        Self { z, tp, rows, lo, hi, vertices: poly.vertices, area: poly.area, centroid: poly.centroid }
+    }
+
+    /// The tensions at null-space coordinates `p`.
+    pub fn tensions(&self, p: [f64; 2]) -> SVector<f64, M> {
+        SVector::from_fn(|k, _| self.tp[k] + self.z[(k, 0)] * p[0] + self.z[(k, 1)] * p[1])
+    }
+
+    /// Area relative to the square of the tension scale, to skip
+    /// near-degenerate cases in comparisons.
+    pub fn relative_area(&self, limits: &TensionLimits<f64, M>) -> f64 {
+        self.area / (limits.scale() * limits.scale())
+    }
+}
+
 /// The reference barycenter of `W t = f` within `limits` (`M = N + 2`):
 /// `None` when the clipped polygon is empty. Also returns the polygon's area
 /// relative to the square of the tension scale (to skip near-degenerate
@@ -111,21 +166,11 @@ pub fn reference_barycenter<const N: usize, const M: usize>(
     f: &SVector<f64, N>,
     limits: &TensionLimits<f64, M>,
 ) -> Option<(SVector<f64, M>, f64)> {
-    assert_eq!(M, N + 2);
-    let z = reference_null_space(w);
-    let tp = reference_particular(w, f);
-    let rows: Vec<[f64; 2]> = (0..M).map(|k| [z[(k, 0)], z[(k, 1)]]).collect();
-    let lo: Vec<f64> = (0..M).map(|k| limits.min()[k] - tp[k]).collect();
-    let hi: Vec<f64> = (0..M).map(|k| limits.max()[k] - tp[k]).collect();
-    let radius = 4.0 * (limits.max().norm() + tp.norm());
-    let poly = clip_polygon(&rows, &lo, &hi, radius);
+    let poly = ReferencePolygon::new(w, f, limits);
     if poly.vertices.is_empty() || poly.area.is_nan() || poly.area <= 0.0 {
         return None;
     }
-    let c = poly.centroid;
-    let t = SVector::from_fn(|k, _| tp[k] + z[(k, 0)] * c[0] + z[(k, 1)] * c[1]);
-    let scale = limits.scale();
-    Some((t, poly.area / (scale * scale)))
+    Some((poly.tensions(poly.centroid), poly.relative_area(limits)))
 }
 
 /// Residual of the analytic centre's optimality conditions (Di Paola et al.
@@ -199,4 +244,35 @@ pub fn random_problem<const N: usize, const M: usize>(
             let f = w * t0 + SVector::<f64, N>::from_fn(|i, _| offset[i] * push * width);
             (w, f, limits)
         })
+}
+
+/// One sample of a trajectory: pose and its first two time derivatives.
+pub struct Sample<const N: usize> {
+    /// Pose.
+    pub pose: SVector<f64, N>,
+    /// Its time derivative.
+    pub velocity: SVector<f64, N>,
+    /// Its second time derivative.
+    pub acceleration: SVector<f64, N>,
+}
+
+/// Through `waypoints` at 1 kHz with `tension_core::trajectory::time_law`,
+/// each segment timed so that its peak speed (35/16 of the mean for this
+/// time law) is 0.9 m/s or rad/s.
+pub fn trajectory<const N: usize>(waypoints: &[SVector<f64, N>]) -> Vec<Sample<N>> {
+    let mut out = Vec::new();
+    for pair in waypoints.windows(2) {
+        let delta = pair[1] - pair[0];
+        let seconds = (delta.amax() * 35.0 / 16.0 / 0.9).max(0.1);
+        let steps = (seconds * 1000.0).ceil() as usize;
+        for k in 0..steps {
+            let (s, ds, dds) = tension_core::trajectory::time_law(k as f64 / steps as f64);
+            out.push(Sample {
+                pose: pair[0] + delta * s,
+                velocity: delta * (ds / seconds),
+                acceleration: delta * (dds / (seconds * seconds)),
+            });
+        }
+    }
+    out
 }

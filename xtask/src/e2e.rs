@@ -162,13 +162,7 @@ impl Session {
     /// number and remembers it.
     fn send_setpoint(&mut self, k: u32) -> Result<(), String> {
         self.seq += 1;
-        let s = trajectory::setpoint(k);
-        let wire = Setpoint {
-            seq: self.seq,
-            pose: core::array::from_fn(|i| s.pose[i]),
-            velocity: core::array::from_fn(|i| s.velocity[i]),
-            acceleration: core::array::from_fn(|i| s.acceleration[i]),
-        };
+        let wire = Setpoint { seq: self.seq, ..trajectory::setpoint(k).to_wire() };
         self.sent.insert(self.seq, wire);
         self.send(&HostMessage::Setpoint(wire))
     }
@@ -187,6 +181,11 @@ impl Session {
         self.wait_for(from, Duration::from_secs(10), |t| t.setpoint_seq == seq)
     }
 
+    /// The first sample after `from` that satisfies `pred`, so far.
+    fn find_since(&self, from: usize, pred: impl Fn(&Telemetry) -> bool) -> Option<Telemetry> {
+        self.received.lock().unwrap().telemetry.get(from..)?.iter().find(|t| pred(t)).copied()
+    }
+
     /// Waits (real time) until a sample after `from` satisfies `until`.
     fn wait_for(
         &self,
@@ -196,7 +195,7 @@ impl Session {
     ) -> Option<Telemetry> {
         let start = Instant::now();
         while start.elapsed() < timeout {
-            if let Some(t) = self.telemetry_since(from).into_iter().find(|t| until(t)) {
+            if let Some(t) = self.find_since(from, &until) {
                 return Some(t);
             }
             thread::sleep(Duration::from_millis(5));
@@ -222,6 +221,79 @@ fn reference(robot: &Robot68, method: Method, s: &Setpoint) -> Result<([f64; 8],
         *t = winch.motor_torque(tension).map_err(|e| e.status().to_string())?.torque;
     }
     Ok((tensions, torques))
+}
+
+/// The firmware's tensions and torques against the host's f64 `method`
+/// for the same setpoints, over the `samples` that `used` selects.
+struct Comparison {
+    samples: usize,
+    worst_tension: f64,
+    worst_torque: f64,
+}
+
+fn compare(
+    robot: &Robot68,
+    method: Method,
+    sent: &HashMap<u32, Setpoint>,
+    samples: &[Telemetry],
+    used: impl Fn(&Telemetry) -> bool,
+) -> Result<Comparison, String> {
+    let mut c = Comparison { samples: 0, worst_tension: 0.0, worst_torque: 0.0 };
+    for t in samples.iter().filter(|t| used(t)) {
+        let sent = sent
+            .get(&t.setpoint_seq)
+            .ok_or_else(|| format!("telemetry names setpoint {} that was never sent", t.setpoint_seq))?;
+        let (tensions, torques) = reference(robot, method, sent)?;
+        for i in 0..8 {
+            c.worst_tension = c.worst_tension.max((f64::from(t.tensions[i]) - tensions[i]).abs());
+            c.worst_torque = c.worst_torque.max((f64::from(t.torques[i]) - torques[i]).abs());
+        }
+        c.samples += 1;
+    }
+    Ok(c)
+}
+
+/// The tracking phase's verdict: enough samples compared, every error within
+/// its tolerance, no frame rejected; the figures, with the step cost the
+/// telemetry reports.
+fn judge_tracking(
+    c: Comparison,
+    samples: &[Telemetry],
+    last: Option<Telemetry>,
+    tension_tol: f64,
+    torque_tol: f64,
+) -> Result<String, String> {
+    let Comparison { samples: compared, worst_tension, worst_torque } = c;
+    let enabled = samples.iter().filter(|t| t.state == State::Enabled).count();
+    if compared < (TRACKING_SETPOINTS / u32::from(TELEMETRY_PERIOD) / 4) as usize {
+        Err(format!(
+            "only {compared} enabled samples with a solution out of {} telemetry samples",
+            samples.len()
+        ))
+    } else if worst_tension > tension_tol || worst_torque > torque_tol {
+        Err(format!(
+            "worst tension error {worst_tension:.3e} N (tolerance {tension_tol:.3e}), torque {worst_torque:.3e} N m (tolerance {torque_tol:.3e})"
+        ))
+    } else if last.is_some_and(|t| {
+        t.counters.rejected_crc
+            + t.counters.rejected_framing
+            + t.counters.rejected_decode
+            + t.counters.rejected_range
+            + t.counters.rejected_order
+            > 0
+    }) {
+        Err(format!("frames rejected during a clean stream: {:?}", last.map(|t| t.counters)))
+    } else {
+        let mut costs: Vec<u32> = samples.iter().map(|t| t.step_cost).filter(|&c| c > 0).collect();
+        costs.sort_unstable();
+        let cost = |q: usize| costs.get(q * costs.len().saturating_sub(1) / 100).copied().unwrap_or(0);
+        Ok(format!(
+            "step cost with frame decoding (telemetry): median {} max {} instructions; {compared} samples compared ({enabled} enabled of {} received); worst |t - t_host| {worst_tension:.2e} N, |tau - tau_host| {worst_torque:.2e} N m (tolerances {tension_tol:.2e} N = {TENSION_TOLERANCE:e} of the range, {torque_tol:.2e} N m)",
+            cost(50),
+            cost(100),
+            samples.len()
+        ))
+    }
 }
 
 /// Runs the scenario; each entry is one check's name and outcome.
@@ -301,7 +373,7 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
     let before = s.telemetry_count();
     let start = Instant::now();
     while start.elapsed() < Duration::from_secs(10)
-        && !s.telemetry_since(before).iter().any(|t| t.state == State::Fault)
+        && s.find_since(before, |t| t.state == State::Fault).is_none()
     {
         s.seq += 1;
         let nan = Setpoint { seq: s.seq, pose: [f32::NAN, 0.0, 2.0, 0.0, 0.0, 0.0], ..s.sent[&(s.seq - 1)] };
@@ -395,78 +467,31 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
     }
     s.caught_up(from).ok_or("the firmware never reported the setpoints after the method switch")?;
     let switched = s.telemetry_since(from);
-    let mut worst = 0.0f64;
-    let mut compared_min2 = 0;
-    for t in switched.iter().filter(|t| t.state == State::Enabled && t.solved && t.method == id) {
-        let sent = s.sent.get(&t.setpoint_seq).ok_or("telemetry names an unsent setpoint")?;
-        let (tensions, _) = reference(&robot, method, sent)?;
-        for (&got, &want) in t.tensions.iter().zip(&tensions) {
-            worst = worst.max((f64::from(got) - want).abs());
-        }
-        compared_min2 += 1;
-    }
+    let min2 = compare(&robot, method, &s.sent, &switched, |t| {
+        t.state == State::Enabled && t.solved && t.method == id
+    });
     results.push((
         "method selected over the link (min-2-norm) matches the host's f64".into(),
-        if ramped.is_none() {
-            Err("the stale fault's ramp never finished".into())
-        } else if compared_min2 < 20 {
-            Err(format!("only {compared_min2} enabled min-2-norm samples of {}", switched.len()))
-        } else if worst > tension_tol {
-            Err(format!("worst tension error {worst:.3e} N (tolerance {tension_tol:.3e})"))
-        } else {
-            Ok(format!("{compared_min2} samples, worst |t - t_host| {worst:.2e} N"))
+        match min2 {
+            _ if ramped.is_none() => Err("the stale fault's ramp never finished".into()),
+            Err(e) => Err(e),
+            Ok(c) if c.samples < 20 => {
+                Err(format!("only {} enabled min-2-norm samples of {}", c.samples, switched.len()))
+            }
+            Ok(c) if c.worst_tension > tension_tol => {
+                Err(format!("worst tension error {:.3e} N (tolerance {tension_tol:.3e})", c.worst_tension))
+            }
+            Ok(c) => Ok(format!("{} samples, worst |t - t_host| {:.2e} N", c.samples, c.worst_tension)),
         },
     ));
 
     // The references are computed last: the stream must not pause (it
     // would go stale) while the host solves.
-    let samples = tracking;
-    let mut compared = 0;
-    let (mut worst_tension, mut worst_torque) = (0.0f64, 0.0f64);
-    let mut problems = Vec::new();
-    for t in samples.iter().filter(|t| t.state == State::Enabled && t.solved) {
-        let Some(sent) = s.sent.get(&t.setpoint_seq) else {
-            problems.push(format!("telemetry names setpoint {} that was never sent", t.setpoint_seq));
-            continue;
-        };
-        let (tensions, torques) = reference(&robot, Method::Barycenter, sent)?;
-        for i in 0..8 {
-            worst_tension = worst_tension.max((f64::from(t.tensions[i]) - tensions[i]).abs());
-            worst_torque = worst_torque.max((f64::from(t.torques[i]) - torques[i]).abs());
-        }
-        compared += 1;
-    }
-    let enabled = samples.iter().filter(|t| t.state == State::Enabled).count();
-    let check = if !problems.is_empty() {
-        Err(problems.join("; "))
-    } else if compared < (TRACKING_SETPOINTS / u32::from(TELEMETRY_PERIOD) / 4) as usize {
-        Err(format!(
-            "only {compared} enabled samples with a solution out of {} telemetry samples",
-            samples.len()
-        ))
-    } else if worst_tension > tension_tol || worst_torque > torque_tol {
-        Err(format!(
-            "worst tension error {worst_tension:.3e} N (tolerance {tension_tol:.3e}), torque {worst_torque:.3e} N m (tolerance {torque_tol:.3e})"
-        ))
-    } else if last.is_some_and(|t| {
-        t.counters.rejected_crc
-            + t.counters.rejected_framing
-            + t.counters.rejected_decode
-            + t.counters.rejected_range
-            + t.counters.rejected_order
-            > 0
-    }) {
-        Err(format!("frames rejected during a clean stream: {:?}", last.map(|t| t.counters)))
-    } else {
-        let mut costs: Vec<u32> = samples.iter().map(|t| t.step_cost).filter(|&c| c > 0).collect();
-        costs.sort_unstable();
-        let cost = |q: usize| costs.get(q * costs.len().saturating_sub(1) / 100).copied().unwrap_or(0);
-        Ok(format!(
-            "step cost with frame decoding (telemetry): median {} max {} instructions; {compared} samples compared ({enabled} enabled of {} received); worst |t - t_host| {worst_tension:.2e} N, |tau - tau_host| {worst_torque:.2e} N m (tolerances {tension_tol:.2e} N = {TENSION_TOLERANCE:e} of the range, {torque_tol:.2e} N m)",
-            cost(50),
-            cost(100),
-            samples.len()
-        ))
+    let tracked =
+        compare(&robot, Method::Barycenter, &s.sent, &tracking, |t| t.state == State::Enabled && t.solved);
+    let check = match tracked {
+        Err(e) => Err(e),
+        Ok(c) => judge_tracking(c, &tracking, last, tension_tol, torque_tol),
     };
     results.insert(0, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
 

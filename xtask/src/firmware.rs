@@ -80,7 +80,7 @@ pub fn run_demo() -> Result<(), String> {
 /// An error only when the firmware cannot be built or run at all.
 pub fn test() -> Result<(usize, usize), String> {
     let run = run_firmware("demo", true)?;
-    let crashed = matches!(run.code, None | Some(1) | Some(101) | Some(102));
+    let crashed = matches!(run.code, None | Some(1) | Some(EXIT_PANIC) | Some(EXIT_HARDFAULT));
     let mut passed = 0;
     let mut failed = 0;
     let mut report = |name: &str, result: Result<String, String>| {
@@ -389,8 +389,8 @@ fn explain(code: Option<i32>) -> String {
             .collect();
             format!("exited with {c}: {}", reasons.join(", "))
         }
-        Some(101) => "panicked (exit code 101)".into(),
-        Some(102) => "hit a HardFault (exit code 102)".into(),
+        Some(EXIT_PANIC) => format!("panicked (exit code {EXIT_PANIC})"),
+        Some(EXIT_HARDFAULT) => format!("hit a HardFault (exit code {EXIT_HARDFAULT})"),
         Some(c) => format!("exited with {c} (runner or QEMU failure?)"),
         None => "was killed by a signal".into(),
     }
