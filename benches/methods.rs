@@ -18,7 +18,7 @@
 
 use std::{hint::black_box, time::Instant};
 
-use cdpr_integration_tests::shared_robot;
+use cdpr_integration_tests::shipped_robot;
 use clarabel::{algebra::CscMatrix, solver::*};
 use criterion::Criterion;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -243,9 +243,9 @@ fn print_table(label: &str, rows: &[Row]) {
     }
 }
 
-/// A shared robot along `path` (centre, amplitudes, tilt amplitudes).
+/// A shipped robot along `path` (centre, amplitudes, tilt amplitudes).
 fn bench_robot<T: Real>(c: &mut Criterion, name: &str, label: &str, shape: [[f64; 3]; 3]) -> Vec<Row> {
-    let robot: Robot<T, 6, 8> = shared_robot(name);
+    let robot: Robot<T, 6, 8> = shipped_robot(name);
     let cases = path(&robot, shape[0], shape[1], shape[2], 1000);
     let limits = *robot.limits();
     let variants = Variant::ALL;

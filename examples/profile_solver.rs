@@ -1,12 +1,12 @@
 //! Instruction profile of one method on suspended-8 in f32 (for callgrind):
 //! `cargo build --release --example profile_solver && valgrind --tool=callgrind target/release/examples/profile_solver barycenter`.
-use cdpr_integration_tests::shared_robot;
+use cdpr_integration_tests::shipped_robot;
 use nalgebra::SVector;
 use tension_core::{Method, Robot, TensionSolver};
 
 fn main() {
     let method = std::env::args().nth(1).and_then(|m| Method::from_name(&m)).unwrap_or(Method::Barycenter);
-    let robot: Robot<f32, 6, 8> = shared_robot("suspended-8");
+    let robot: Robot<f32, 6, 8> = shipped_robot("suspended-8");
     let mut solver = TensionSolver::<f32, 8>::new(method);
     let mut ok = 0;
     for k in 0..4000 {

@@ -5,7 +5,7 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use cdpr_integration_tests::{analytic_centre_residual, random_problem, shared_robot, stationarity_residual};
+use cdpr_integration_tests::{analytic_centre_residual, random_problem, shipped_robot, stationarity_residual};
 use nalgebra::{DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
 use tension_core::{
@@ -175,7 +175,7 @@ fn motivating_example_blue_and_green_are_close() {
 
 #[test]
 fn weights_push_away_from_their_bound() {
-    let robot: Robot<f64, 6, 8> = shared_robot("suspended-8");
+    let robot: Robot<f64, 6, 8> = shipped_robot("suspended-8");
     let pose = SVector::<f64, 6>::new(0.2, -0.1, 1.2, 0.05, -0.05, 0.1);
     let w = robot.wrench_matrix(&pose).unwrap();
     let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
@@ -241,7 +241,7 @@ impl ConvexConstraint<f64, 4> for Friction {
 /// them slide (their Fig. 10-b).
 #[test]
 fn friction_constraints_of_a_mobile_base() {
-    let mut robot: Robot<f64, 2, 4> = shared_robot("planar-point-4");
+    let mut robot: Robot<f64, 2, 4> = shipped_robot("planar-point-4");
     let mut platform = *robot.platform();
     platform.mass = 5.0;
     robot.set_platform(platform).unwrap();
@@ -286,7 +286,7 @@ fn symmetric_pose_gives_symmetric_answer() {
     // IPAnema 1 is symmetric under x -> -x and y -> -y; at the centre with no
     // gravity moment every cable pair mirrored has the same tension, and the
     // analytic centre and the barycenter agree on that.
-    let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
+    let robot: Robot<f64, 6, 8> = shipped_robot("ipanema1");
     let pose = SVector::<f64, 6>::new(0.0, 0.0, 1.0, 0.0, 0.0, 0.0);
     let w = robot.wrench_matrix(&pose).unwrap();
     let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();

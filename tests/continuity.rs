@@ -1,4 +1,4 @@
-//! Trajectories on the shared robots: every answer is valid, consecutive
+//! Trajectories on the shipped robots: every answer is valid, consecutive
 //! answers differ little for a small pose step, leaving the workspace gives a
 //! clean `infeasible` (confirmed by the independent clipping reference), and
 //! `f32` agrees with `f64`.
@@ -18,7 +18,7 @@
 //!   sharpest angle between polygon edges; measured: 3.7e-6 of the range on
 //!   suspended-8, so the bound leaves a margin of about 25.
 
-use cdpr_integration_tests::{reference_barycenter, shared_robot, trajectory, Sample};
+use cdpr_integration_tests::{reference_barycenter, shipped_robot, trajectory, Sample};
 use nalgebra::{Matrix3, SVector, Vector3};
 use tension_core::{Error, Method, Motion, Platform, Robot, RobotKind, TensionLimits, TensionSolver};
 
@@ -137,7 +137,7 @@ fn p6(x: f64, y: f64, z: f64, rx: f64, ry: f64, rz: f64) -> SVector<f64, 6> {
 
 #[test]
 fn suspended_8_crossing_the_border() {
-    let robot: Robot<f64, 6, 8> = shared_robot("suspended-8");
+    let robot: Robot<f64, 6, 8> = shipped_robot("suspended-8");
     let waypoints = [
         p6(0.0, 0.0, 1.5, 0.0, 0.0, 0.0),
         p6(1.8, 0.3, 1.2, 0.05, 0.0, 0.1),
@@ -149,7 +149,7 @@ fn suspended_8_crossing_the_border() {
 
 #[test]
 fn ipanema1_crossing_the_border() {
-    let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
+    let robot: Robot<f64, 6, 8> = shipped_robot("ipanema1");
     let waypoints = [
         p6(0.0, 0.0, 1.0, 0.0, 0.0, 0.0),
         p6(1.6, 0.5, 0.8, 0.0, 0.1, 0.1),
@@ -161,7 +161,7 @@ fn ipanema1_crossing_the_border() {
 
 #[test]
 fn cogiro_crossing_the_border() {
-    let robot: Robot<f64, 6, 8> = shared_robot("cogiro");
+    let robot: Robot<f64, 6, 8> = shipped_robot("cogiro");
     let waypoints = [
         p6(0.0, 0.0, 2.0, 0.0, 0.0, 0.0),
         p6(7.3, 2.0, 2.5, 0.0, 0.0, 0.2),
@@ -173,7 +173,7 @@ fn cogiro_crossing_the_border() {
 
 #[test]
 fn planar_point_mass_crossing_the_border() {
-    let robot: Robot<f64, 2, 4> = shared_robot("planar-point-4");
+    let robot: Robot<f64, 2, 4> = shipped_robot("planar-point-4");
     let p = |x: f64, y: f64| SVector::<f64, 2>::new(x, y);
     check_robot("planar-point-4", &robot, &[p(1.5, 1.5), p(1.5, 2.97), p(2.2, 1.0), p(1.5, 1.5)]);
 }
@@ -225,8 +225,8 @@ fn planar3_five_cables_crossing_the_border() {
 /// `f32` barycenter (as on the board) against `f64` along the suspended-8 trajectory.
 #[test]
 fn f32_agrees_with_f64() {
-    let r64: Robot<f64, 6, 8> = shared_robot("suspended-8");
-    let r32: Robot<f32, 6, 8> = shared_robot("suspended-8");
+    let r64: Robot<f64, 6, 8> = shipped_robot("suspended-8");
+    let r32: Robot<f32, 6, 8> = shipped_robot("suspended-8");
     let waypoints = [
         p6(0.0, 0.0, 1.5, 0.0, 0.0, 0.0),
         p6(1.8, 0.3, 1.2, 0.05, 0.0, 0.1),
@@ -263,7 +263,7 @@ fn f32_agrees_with_f64() {
 /// rounding. Such crossings are taken as parallel, so the answer does not jump.
 #[test]
 fn nearly_coincident_lines_do_not_make_a_jump() {
-    let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
+    let robot: Robot<f64, 6, 8> = shipped_robot("ipanema1");
     let centre = p6(0.0, 0.0, 1.0, 0.0, 0.0, 0.0);
     let nudged = centre + p6(2.4e-13, 7.6e-14, -3.0e-14, 0.0, 1.5e-14, 1.5e-14);
     let solve = |pose: &SVector<f64, 6>| {

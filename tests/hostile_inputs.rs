@@ -2,7 +2,7 @@
 //! cables, coincident anchors, huge coordinates, bad limits. Every call
 //! returns a typed error or a valid answer; nothing panics or hangs.
 
-use cdpr_integration_tests::shared_robot;
+use cdpr_integration_tests::shipped_robot;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
 use proptest::prelude::*;
 use tension_core::{
@@ -141,7 +141,7 @@ proptest! {
 }
 
 fn suspended() -> (Robot<f64, 6, 8>, SVector<f64, 6>) {
-    (shared_robot("suspended-8"), SVector::<f64, 6>::new(0.0, 0.0, 1.5, 0.0, 0.0, 0.0))
+    (shipped_robot("suspended-8"), SVector::<f64, 6>::new(0.0, 0.0, 1.5, 0.0, 0.0, 0.0))
 }
 
 #[test]
@@ -228,7 +228,7 @@ fn huge_coordinates_give_errors_or_valid_answers() {
             Err(e) => assert!(matches!(e, Error::NonFinite | Error::DegenerateCable), "{e:?}"),
         }
     }
-    let r32: Robot<f32, 6, 8> = shared_robot("suspended-8");
+    let r32: Robot<f32, 6, 8> = shipped_robot("suspended-8");
     let pose = SVector::<f32, 6>::new(0.0, 0.0, 1e30, 0.0, 0.0, 0.0);
     assert_eq!(r32.wrench_matrix(&pose).unwrap_err(), Error::NonFinite);
 }

@@ -1,9 +1,9 @@
-//! Kinematics against the SPEC, checked independently: the wrench matrix
+//! Kinematics against the conventions, checked independently: the wrench matrix
 //! against finite differences of the cable lengths (virtual work), the Euler
 //! convention against hand-worked rotations, the angular velocity against the
 //! derivative of `R`, and the external wrench against hand-derived values.
 
-use cdpr_integration_tests::shared_robot;
+use cdpr_integration_tests::shipped_robot;
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 use tension_core::{Motion, Platform, Robot, RobotKind, TensionLimits, Winch};
 
@@ -16,7 +16,7 @@ fn lengths(robot: &Robot<f64, 6, 8>, p: Vector3<f64>, r: Matrix3<f64>) -> SVecto
 #[test]
 fn wrench_matrix_is_minus_the_length_jacobian_transposed() {
     for name in ["suspended-8", "ipanema1", "cogiro"] {
-        let robot: Robot<f64, 6, 8> = shared_robot(name);
+        let robot: Robot<f64, 6, 8> = shipped_robot(name);
         let pose = SVector::<f64, 6>::new(0.1, -0.2, 1.0, 0.1, -0.2, 0.3);
         let (p, r) = robot.frame(&pose).unwrap();
         let w = robot.wrench_matrix(&pose).unwrap();
@@ -39,7 +39,7 @@ fn wrench_matrix_is_minus_the_length_jacobian_transposed() {
 
 #[test]
 fn euler_convention_is_xyz_intrinsic() {
-    let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
+    let robot: Robot<f64, 6, 8> = shipped_robot("ipanema1");
     let q = std::f64::consts::FRAC_PI_2;
     // Rx(pi/2): y -> z.
     let (_, r) = robot.frame(&SVector::<f64, 6>::new(0.0, 0.0, 0.0, q, 0.0, 0.0)).unwrap();
@@ -56,7 +56,7 @@ fn euler_convention_is_xyz_intrinsic() {
 
 #[test]
 fn angular_velocity_and_acceleration_match_the_derivative_of_r() {
-    let robot: Robot<f64, 6, 8> = shared_robot("ipanema1");
+    let robot: Robot<f64, 6, 8> = shipped_robot("ipanema1");
     // Angles along a smooth curve q(s) = q0 + v s + a s^2 / 2.
     let q0 = SVector::<f64, 6>::new(0.0, 0.0, 1.0, 0.3, -0.4, 0.5);
     let v = SVector::<f64, 6>::new(0.1, 0.2, 0.3, 0.7, -0.5, 0.9);
@@ -84,7 +84,7 @@ fn angular_velocity_and_acceleration_match_the_derivative_of_r() {
 
 #[test]
 fn gravity_wrench_at_an_offset_centre_of_mass() {
-    let robot: Robot<f64, 6, 8> = shared_robot("suspended-8");
+    let robot: Robot<f64, 6, 8> = shipped_robot("suspended-8");
     // m = 6.34, c = (0, 0, -0.1); with rx = pi/2 the centre of mass is at R c = (0, 0.1, 0).
     let pose = SVector::<f64, 6>::new(0.0, 0.0, 1.0, std::f64::consts::FRAC_PI_2, 0.0, 0.0);
     let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
@@ -100,7 +100,7 @@ fn gravity_wrench_at_an_offset_centre_of_mass() {
 
 #[test]
 fn dalembert_wrench() {
-    let robot: Robot<f64, 6, 8> = shared_robot("suspended-8");
+    let robot: Robot<f64, 6, 8> = shipped_robot("suspended-8");
     let pose = SVector::<f64, 6>::new(0.0, 0.0, 1.0, 0.0, 0.0, 0.0);
     let motion = Motion {
         linear_acceleration: Vector3::new(1.0, 0.0, 2.0),
@@ -156,7 +156,7 @@ fn planar_wrench_matrices() {
         assert!((w[(0, i)] - u[0]).abs() < 1e-15 && (w[(1, i)] - u[1]).abs() < 1e-15);
         assert!((w[(2, i)] - (rb[0] * u[1] - rb[1] * u[0])).abs() < 1e-15);
     }
-    let point: Robot<f64, 2, 4> = shared_robot("planar-point-4");
+    let point: Robot<f64, 2, 4> = shipped_robot("planar-point-4");
     let w = point.wrench_matrix(&SVector::<f64, 2>::new(1.0, 1.0)).unwrap();
     let h = 1.0 / 2f64.sqrt();
     let expected = SMatrix::<f64, 2, 4>::new(
@@ -190,7 +190,7 @@ fn motor_torque_follows_the_spec_and_reports_saturation() {
 
 #[test]
 fn one_pass_wrench_problem_equals_the_separate_calls() {
-    let robot: Robot<f32, 6, 8> = shared_robot("suspended-8");
+    let robot: Robot<f32, 6, 8> = shipped_robot("suspended-8");
     let pose = SVector::<f32, 6>::new(0.3, -0.2, 1.4, 0.1, -0.05, 0.3);
     let vel = SVector::<f32, 6>::new(0.1, 0.2, -0.1, 0.3, 0.2, -0.4);
     let acc = SVector::<f32, 6>::new(1.0, -0.5, 0.2, 0.7, -0.3, 0.5);
@@ -202,7 +202,7 @@ fn one_pass_wrench_problem_equals_the_separate_calls() {
     let (_, f_static) = robot.wrench_problem(&pose, &extra, None).unwrap();
     assert_eq!(f_static, robot.required_wrench(&pose, &extra, None).unwrap());
     // f32 kinematics (single-precision sine and cosine) against f64.
-    let r64: Robot<f64, 6, 8> = shared_robot("suspended-8");
+    let r64: Robot<f64, 6, 8> = shipped_robot("suspended-8");
     let (w64, f64_) = r64
         .wrench_problem(
             &pose.map(|x| x as f64),

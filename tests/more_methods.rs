@@ -11,12 +11,12 @@
 //! * puncture: a bisection along the line from the minimum-norm solution.
 //!
 //! Then the behaviour at the workspace border and the continuity claims on
-//! trajectories of the shared robots.
+//! trajectories of the shipped robots.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use cdpr_integration_tests::{
-    clip_polygon, random_problem, reference_particular, shared_robot, trajectory, ReferencePolygon, Sample,
+    clip_polygon, random_problem, reference_particular, shipped_robot, trajectory, ReferencePolygon, Sample,
 };
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
@@ -552,7 +552,7 @@ fn improved_puncture_covers_more_poses() {
     assert!(improved_only > 10, "{improved_only}");
 }
 
-// --- The workspace border and continuity, on the shared robots ----------
+// --- The workspace border and continuity, on the shipped robots ----------
 
 #[derive(Debug, Default)]
 struct Run {
@@ -632,21 +632,21 @@ fn p6(x: f64, y: f64, z: f64, rx: f64, ry: f64, rz: f64) -> SVector<f64, 6> {
 /// the workspace; returns the runs per method.
 fn shared_runs() -> Vec<(String, Method, Run)> {
     let mut out = Vec::new();
-    let s8: Robot<f64, 6, 8> = shared_robot("suspended-8");
+    let s8: Robot<f64, 6, 8> = shipped_robot("suspended-8");
     let s8_path = trajectory(&[
         p6(0.0, 0.0, 1.5, 0.0, 0.0, 0.0),
         p6(1.8, 0.3, 1.2, 0.05, 0.0, 0.1),
         p6(-0.5, -0.4, 2.0, -0.1, 0.1, -0.2),
         p6(0.0, 0.0, 1.5, 0.0, 0.0, 0.0),
     ]);
-    let ip: Robot<f64, 6, 8> = shared_robot("ipanema1");
+    let ip: Robot<f64, 6, 8> = shipped_robot("ipanema1");
     let ip_path = trajectory(&[
         p6(0.0, 0.0, 1.0, 0.0, 0.0, 0.0),
         p6(1.6, 0.5, 0.8, 0.0, 0.1, 0.1),
         p6(-0.3, -0.3, 1.2, 0.1, 0.0, -0.1),
         p6(0.0, 0.0, 1.0, 0.0, 0.0, 0.0),
     ]);
-    let p4: Robot<f64, 2, 4> = shared_robot("planar-point-4");
+    let p4: Robot<f64, 2, 4> = shipped_robot("planar-point-4");
     let p = |x: f64, y: f64| SVector::<f64, 2>::new(x, y);
     let p4_path = trajectory(&[p(1.5, 1.5), p(1.5, 2.97), p(2.2, 1.0), p(1.5, 1.5)]);
     for method in NEW {
@@ -730,7 +730,7 @@ fn refined_jump<const N: usize, const M: usize>(
     (coarse, fine, pose(lo).iter().copied().collect())
 }
 
-/// Which methods jump, shown on straight segments of the shared robots
+/// Which methods jump, shown on straight segments of the shipped robots
 /// where a jump was found by scanning the workspace:
 /// * `min-1-norm` jumps on cogiro (the optimal vertex moves to the other end
 ///   of an edge that turns orthogonal to `sum_k z_k`), `min-2-norm` does not;
@@ -741,8 +741,8 @@ fn refined_jump<const N: usize, const M: usize>(
 /// * `min-2-norm` and `puncture` converge to zero change on every segment.
 #[test]
 fn discontinuous_methods_jump_continuous_ones_do_not() {
-    let cogiro: Robot<f64, 6, 8> = shared_robot("cogiro");
-    let p4: Robot<f64, 2, 4> = shared_robot("planar-point-4");
+    let cogiro: Robot<f64, 6, 8> = shipped_robot("cogiro");
+    let p4: Robot<f64, 2, 4> = shipped_robot("planar-point-4");
     let c = |x: f64, y: f64| p6(x, y, 2.0, 0.0, 0.0, 0.0);
     let p = |x: f64, y: f64| SVector::<f64, 2>::new(x, y);
     let cogiro_range = 0.01 * (cogiro.limits().max()[0] - cogiro.limits().min()[0]);
@@ -886,8 +886,8 @@ fn f32_agrees_with_f64() {
         }
     }
     let load = |path: &str| robot_file::RobotFile::load(std::path::Path::new(path)).unwrap();
-    let s8: Robot<f64, 6, 8> = shared_robot("suspended-8");
-    let s8f: Robot<f32, 6, 8> = shared_robot("suspended-8");
+    let s8: Robot<f64, 6, 8> = shipped_robot("suspended-8");
+    let s8f: Robot<f32, 6, 8> = shipped_robot("suspended-8");
     compare("suspended-8", &s8, &s8f, p6(0.0, 0.0, 1.5, 0.0, 0.0, 0.0));
     let file = load(concat!(env!("CARGO_MANIFEST_DIR"), "/robots/spatial6-10.toml"));
     let s10: Robot<f64, 6, 10> = file.to_robot().unwrap();
@@ -903,7 +903,7 @@ fn f32_agrees_with_f64() {
 /// with `W t = f`.
 #[test]
 fn norms_in_f32_solve_every_pose_the_barycenter_solves() {
-    let robot: Robot<f32, 6, 8> = shared_robot("ipanema1");
+    let robot: Robot<f32, 6, 8> = shipped_robot("ipanema1");
     let limits = *robot.limits();
     let (centre, amp, tilt) = ([0.0, 0.0, 1.0], [0.4, 0.25, 0.1], [0.02, 0.02, 0.05]);
     let mut solved = 0;

@@ -93,7 +93,7 @@ pub struct FeedbackLimits {
 /// The platform's measured motion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Measured {
-    /// Pose `[x, y, z, rx, ry, rz]` (SPEC "Poses").
+    /// Pose `[x, y, z, rx, ry, rz]` (conventions, "Poses").
     pub pose: Pose6,
     /// Velocity of the platform origin, base frame, m/s.
     pub velocity: Vector3<f32>,

@@ -19,7 +19,7 @@ use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage};
 
 use crate::trajectory::Setpoint;
 
-/// Limits on a setpoint's values (base frame; SPEC "Poses").
+/// Limits on a setpoint's values (base frame; conventions "Poses").
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SetpointRange {
     /// Smallest `x, y, z`, m.

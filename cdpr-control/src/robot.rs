@@ -1,4 +1,4 @@
-//! The suspended-8 robot (`/work/shared/robots/suspended-8.toml`) as Rust
+//! The suspended-8 robot (`robots/suspended-8.toml`) as Rust
 //! constants: 8 cables, every anchor 3.5 m up on a 4 m x 3 m frame, 6 DOF,
 //! 2 degrees of redundancy. Keep these numbers in step with the TOML file
 //! (`cdpr-control/tests/robot_constants.rs` checks them against it).

@@ -39,7 +39,7 @@ pub const RY: f32 = 0.08;
 /// Amplitude of `rz`, rad.
 pub const RZ: f32 = 0.2;
 
-/// A pose `[x, y, z, rx, ry, rz]` (SPEC "Poses") or one of its derivatives.
+/// A pose `[x, y, z, rx, ry, rz]` (conventions, "Poses") or one of its derivatives.
 pub type Pose6 = SVector<f32, 6>;
 
 /// A setpoint: pose and its first two time derivatives, with the sequence

@@ -1,4 +1,4 @@
-//! The firmware's robot constants against `../shared/robots/suspended-8.toml`
+//! The firmware's robot constants against `robots/suspended-8.toml`
 //! (read by `robot-file`, the same reader the host tools use).
 
 use cdpr_control::robot::suspended8;
@@ -14,9 +14,9 @@ fn close_all<'a>(a: impl IntoIterator<Item = &'a f32>, b: impl IntoIterator<Item
 }
 
 #[test]
-fn constants_match_the_shared_robot_file() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/robots/suspended-8.toml");
-    let file = RobotFile::load(path).expect("shared robot file");
+fn constants_match_the_shipped_robot_file() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/suspended-8.toml");
+    let file = RobotFile::load(path).expect("robot file");
     let from_file = file.to_robot::<f32, 6, 8>().expect("6 x 8 robot");
     let consts = suspended8().expect("constants form a valid robot");
 

@@ -136,7 +136,7 @@ fn starts_disabled_and_enable_needs_a_feasible_setpoint() {
     assert!(!r.brakes);
     let command = r.solved.unwrap().result.unwrap();
     assert!(same(&r.torques, &command.torques));
-    // Every torque is the SPEC's tau = t r / (G eta) of its tension (suspended-8: r 0.04, G 8, eta 0.9).
+    // Every torque is the conventions' tau = t r / (G eta) of its tension (suspended-8: r 0.04, G 8, eta 0.9).
     for (tau, t) in r.torques.iter().zip(command.tensions) {
         assert!((tau - t * 0.04 / (8.0 * 0.9)).abs() <= 1e-6 * t.abs().max(1.0));
         assert!((5.0 - 1e-3..=350.0 + 1e-3).contains(&t));

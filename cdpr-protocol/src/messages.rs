@@ -4,12 +4,12 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Degrees of freedom of a pose (SPEC "Poses": `[x, y, z, rx, ry, rz]`).
+/// Degrees of freedom of a pose (conventions, "Poses": `[x, y, z, rx, ry, rz]`).
 pub const DOF: usize = 6;
 /// Cables of the firmware's robot.
 pub const CABLES: usize = 8;
 
-/// A pose setpoint with its first two time derivatives (SPEC "Poses":
+/// A pose setpoint with its first two time derivatives (conventions, "Poses":
 /// metres and radians, XYZ Euler angles; derivatives are the plain time
 /// derivatives of those six numbers).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

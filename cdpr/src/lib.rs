@@ -4,7 +4,7 @@
 //! its logic is testable: robot files and pose tables read with errors that
 //! name the file, line and column; tensions along pose tables (`solve`) and
 //! smooth trajectories (`trajectory`, `compare`); the wrench-feasible
-//! workspace (`workspace`). Everything follows `SPEC.md` (poses, robot
+//! workspace (`workspace`). Everything follows `docs/conventions.md` (poses, robot
 //! files, CSV tables, method names) and uses `tension-core` in `f64`.
 
 #![forbid(unsafe_code)]

@@ -1,5 +1,5 @@
 //! `cdpr`: tensions, trajectories and workspaces of cable robots from the
-//! SPEC's robot files and pose tables. Exit code 0 on success, 2 for bad
+//! the conventions' robot files and pose tables. Exit code 0 on success, 2 for bad
 //! input (one line on stderr naming the file, line and column), 1 when an
 //! output file could not be written.
 
@@ -13,7 +13,7 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "cdpr",
     version,
-    about = "Cable robot tensions, trajectories and workspaces (SPEC robot files and CSV tables)"
+    about = "Cable robot tensions, trajectories and workspaces (conventions: robot files and CSV tables)"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -22,7 +22,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Tensions for every pose of a table: CSV in, CSV out (SPEC formats).
+    /// Tensions for every pose of a table: CSV in, CSV out (conventions: formats).
     Solve {
         /// Robot description file (TOML).
         #[arg(long)]

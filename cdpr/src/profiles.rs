@@ -259,7 +259,7 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
         }
     }
 
-    // The sampled trajectory, a SPEC pose table.
+    // The sampled trajectory, a pose table (conventions).
     let pose_path = args.out.join("poses.csv");
     write_atomic(&pose_path, |w: &mut dyn Write| {
         let mut cols = vec!["time"];

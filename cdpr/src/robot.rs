@@ -61,7 +61,7 @@ impl LoadedRobot {
         self.file.kind
     }
 
-    /// The methods that apply to this robot's shape, in the SPEC's order.
+    /// The methods that apply to this robot's shape, in the conventions' order.
     pub fn methods(&self) -> Vec<Method> {
         Method::ALL.into_iter().filter(|m| m.supports(self.dof(), self.cables())).collect()
     }
@@ -285,9 +285,9 @@ fn validate(path: &Path, text: &str, file: &RobotFile) -> Result<(), CliError> {
 /// optional pose velocity and acceleration (for the d'Alembert wrench).
 #[derive(Debug, Clone, Copy)]
 pub struct Query<'a> {
-    /// Pose, `n` numbers in the SPEC's order.
+    /// Pose, `n` numbers in the conventions' order.
     pub pose: &'a [f64],
-    /// Extra external wrench, `n` numbers (SPEC column order).
+    /// Extra external wrench, `n` numbers (conventions: column order).
     pub extra: Option<&'a [f64]>,
     /// First and second time derivatives of the pose.
     pub motion: Option<(&'a [f64], &'a [f64])>,

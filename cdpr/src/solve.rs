@@ -1,4 +1,4 @@
-//! `cdpr solve`: the tensions of every pose of a table (SPEC CSV in and out).
+//! `cdpr solve`: the tensions of every pose of a table (conventions: CSV in and out).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -98,7 +98,7 @@ pub fn run(args: &SolveArgs) -> Result<SolveReport, CliError> {
     Ok(report)
 }
 
-/// The SPEC's tension table header: `[time,]t1,...,tm,status`.
+/// The conventions' tension table header: `[time,]t1,...,tm,status`.
 pub fn tension_header(time: bool, m: usize) -> String {
     let mut cols: Vec<String> = Vec::with_capacity(m + 2);
     if time {

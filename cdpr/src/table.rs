@@ -1,4 +1,4 @@
-//! The SPEC's pose tables (CSV, comma-separated, one header line): reading
+//! The conventions' pose tables (CSV, comma-separated, one header line): reading
 //! with errors that name the file, the line and the column.
 
 use std::path::{Path, PathBuf};
@@ -7,7 +7,7 @@ use tension_core::RobotKind;
 
 use crate::CliError;
 
-/// Pose column names of a kind, in the SPEC's order.
+/// Pose column names of a kind, in the conventions' order.
 pub fn pose_columns(kind: RobotKind) -> &'static [&'static str] {
     match kind {
         RobotKind::Spatial6 => &["x", "y", "z", "rx", "ry", "rz"],
@@ -16,7 +16,7 @@ pub fn pose_columns(kind: RobotKind) -> &'static [&'static str] {
     }
 }
 
-/// Extra external wrench column names of a kind, in the SPEC's order.
+/// Extra external wrench column names of a kind, in the conventions' order.
 pub fn wrench_columns(kind: RobotKind) -> &'static [&'static str] {
     match kind {
         RobotKind::Spatial6 => &["fx", "fy", "fz", "mx", "my", "mz"],
@@ -88,7 +88,7 @@ pub struct PoseRow {
     pub line: usize,
     /// The `time` field as written, and its value.
     pub time: Option<(String, f64)>,
-    /// The pose, in the SPEC's order.
+    /// The pose, in the conventions' order.
     pub pose: Vec<f64>,
     /// The extra external wrench, when the table has those columns.
     pub extra: Option<Vec<f64>>,
@@ -105,7 +105,7 @@ pub struct PoseTable {
     pub rows: Vec<PoseRow>,
 }
 
-/// Reads a pose table (SPEC "Pose and tension tables") for a robot kind.
+/// Reads a pose table (conventions, "Pose and tension tables") for a robot kind.
 /// Columns are found by name; the pose columns are required, the extra
 /// wrench columns all or none, `time` optional or required. Waypoint tables
 /// (`TimeColumn::Required`) must hold finite numbers and strictly

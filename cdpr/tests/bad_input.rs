@@ -139,7 +139,7 @@ fn cases() -> Vec<Case> {
             "barycenter",
             vec!["method barycenter needs m = n + 2 cables; r.toml has 2 DOF and 6 cables"],
         ),
-        // Robot files that are not the SPEC's.
+        // Robot files that are not the conventions'.
         solve_case(
             "unknown robot field",
             good.replace("mass = 20.0", "mass = 20.0\ncolour = 3"),

@@ -221,7 +221,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
-/// Spatial robots: every `ok` row of `solve` balances the SPEC's wrench
+/// Spatial robots: every `ok` row of `solve` balances the conventions' wrench
 /// (gravity at the centre of mass, XYZ Euler angles) within the limits,
 /// checked with a wrench matrix built here, for every shipped spatial robot
 /// and every method that applies.

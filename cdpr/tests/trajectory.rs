@@ -109,7 +109,7 @@ fn planar_point_trajectory_files_plots_and_dynamics() {
             assert!(want.iter().zip(&stat).any(|(a, b)| (a - b).abs() > 0.1));
         }
     }
-    // The pose table is a valid SPEC pose table that `solve` reads back.
+    // The pose table is a valid pose table (conventions) that `solve` reads back.
     let (pose_header, pose_rows) = read_csv(&out.join("poses.csv"));
     assert_eq!(pose_header, ["time", "x", "y"]);
     assert_eq!(pose_rows.len(), 701);

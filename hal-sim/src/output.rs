@@ -38,7 +38,7 @@ pub fn reason_name(r: Reason) -> &'static str {
 
 /// The CSV table: `time,state,reason,brakes,locked,x,y,z,rx,ry,rz,ex,ey,ez,
 /// erx,ery,erz,position_error_mm,rotation_error_deg,speed,t1..t8,
-/// cmd_t1..cmd_t8,tau1..tau8,fb_fx,fb_fy,fb_fz,fb_mx,fb_my,fb_mz` (pose in the SPEC's order, errors
+/// cmd_t1..cmd_t8,tau1..tau8,fb_fx,fb_fy,fb_fz,fb_mx,fb_my,fb_mz` (pose in the conventions' order, errors
 /// `reference - pose` in the base frame, tensions the true ones, `cmd_`
 /// the controller's, empty where it had none; `fb_` the PID's wrench).
 pub fn csv(rows: &[Row]) -> String {

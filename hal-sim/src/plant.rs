@@ -15,7 +15,7 @@ use tension_core::{Error, Method, Robot, TensionSolver};
 /// The plant's robot type (the robot file in `f64`).
 pub type PlantRobot = Robot<f64, 6, CABLES>;
 
-/// Winch and drive data beyond the SPEC's `[winch]` table.
+/// Winch and drive data beyond the conventions' `[winch]` table.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WinchModel {
     /// Motor plus gearbox plus drum inertia, seen at the motor shaft, kg m^2.
@@ -163,7 +163,7 @@ impl State {
 /// One sample of the plant's true state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
-    /// Pose of the platform frame `[x, y, z, rx, ry, rz]` (SPEC).
+    /// Pose of the platform frame `[x, y, z, rx, ry, rz]` (conventions).
     pub pose: [f64; 6],
     /// Velocity of the platform origin, base frame, m/s.
     pub velocity: Vector3<f64>,
@@ -197,7 +197,7 @@ pub struct Plant {
 }
 
 /// Pose `[x, y, z, rx, ry, rz]` of a rotation matrix and a position
-/// (SPEC: `R = Rx(rx) Ry(ry) Rz(rz)`).
+/// (conventions: `R = Rx(rx) Ry(ry) Rz(rz)`).
 pub fn pose_of(p: &Vector3<f64>, r: &Matrix3<f64>) -> [f64; 6] {
     let ry = r[(0, 2)].clamp(-1.0, 1.0).asin();
     let rx = (-r[(1, 2)]).atan2(r[(2, 2)]);

@@ -34,7 +34,7 @@ use crate::plant::{CableModel, Derate, Disturbance, Mismatch, Plant, PlantFaults
 /// Control period, s.
 pub const PERIOD: f64 = 0.001;
 
-/// A pose and its first two time derivatives (SPEC pose order).
+/// A pose and its first two time derivatives (conventions: pose order).
 pub type Reference = ([f64; 6], [f64; 6], [f64; 6]);
 
 /// The pose the host asks for over time.
@@ -133,7 +133,7 @@ pub struct Scenario {
 /// centre of mass 2-3 mm off.
 pub const MISMATCH: Mismatch = Mismatch { mass_factor: 1.02, com_offset: [0.002, -0.002, 0.003] };
 
-/// Static-hold poses of suspended-8 (SPEC pose order).
+/// Static-hold poses of suspended-8 (conventions: pose order).
 pub const HOLD_POSES: [(&str, [f64; 6]); 4] = [
     ("hold-centre", [0.0, 0.0, 1.8, 0.0, 0.0, 0.0]),
     ("hold-corner", [0.8, 0.4, 2.0, 0.05, -0.05, 0.1]),
@@ -385,7 +385,7 @@ fn pose_error(robot: &PlantRobot, reference: &[f64; 6], pose: &[f64; 6]) -> [f64
 
 /// The robot file the plant is built from.
 pub fn robot_file_path() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/robots/suspended-8.toml")
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/suspended-8.toml")
 }
 
 /// Loads the robot file as the plant's robot.

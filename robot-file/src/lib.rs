@@ -1,4 +1,4 @@
-//! Reads the SPEC's robot description files (TOML, `SPEC.md` "Robot
+//! Reads the conventions' robot description files (TOML, `docs/conventions.md` "Robot
 //! description files") into [`tension_core::Robot`] values.
 //!
 //! A file is parsed once into a [`RobotFile`] (any number of cables, `f64`),
@@ -16,7 +16,7 @@ use tension_core::{Platform, Real, Robot, RobotKind, TensionLimits, Winch};
 pub enum RobotFileError {
     /// The file could not be read.
     Io(String, std::io::Error),
-    /// The TOML does not follow the SPEC's schema.
+    /// The TOML does not follow the conventions' schema.
     Format(String),
     /// The numbers do not make a valid robot (see the inner error).
     Invalid(String, tension_core::Error),

@@ -131,7 +131,7 @@ impl<T: Real, const M: usize> Default for AnalyticCentre<'_, T, M> {
     }
 }
 
-/// `analytic-centre` (SPEC) with unit weights, no extra constraint and the
+/// `analytic-centre` (conventions) with unit weights, no extra constraint and the
 /// default settings; `start` is the previous cycle's tensions, if any.
 pub fn analytic_centre<T: Real, const N: usize, const M: usize>(
     w: &SMatrix<T, N, M>,

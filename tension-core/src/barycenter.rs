@@ -109,7 +109,7 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
     }
 }
 
-/// `barycenter` (SPEC): the centroid of the feasible polygon by walking its
+/// `barycenter` (conventions): the centroid of the feasible polygon by walking its
 /// edges (Lamaury & Gouttefarde 2013, Sect. 2.2-2.3), warm-started from the
 /// previous cycle's active pair when it is given and still a vertex.
 ///
@@ -143,7 +143,7 @@ pub fn barycenter_factored<T: Real, const N: usize, const M: usize>(
     poly.solution(&found, limits, warm)
 }
 
-/// `barycenter-brute` (SPEC): the same centroid from every pairwise line
+/// `barycenter-brute` (conventions): the same centroid from every pairwise line
 /// intersection (Mikelsons et al. 2008), `O(M^3)`.
 pub fn barycenter_brute<T: Real, const N: usize, const M: usize>(
     w: &SMatrix<T, N, M>,

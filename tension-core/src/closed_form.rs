@@ -10,7 +10,7 @@ use crate::{
     Error, Real, TensionLimits,
 };
 
-/// `closed-form` (SPEC): `t = t_m + W^+ (f - W t_m)` with
+/// `closed-form` (conventions): `t = t_m + W^+ (f - W t_m)` with
 /// `t_m = (t_min + t_max) / 2` (Pott 2013, Eq. 2).
 ///
 /// Errors where `t` leaves the limits: [`Error::Infeasible`] when
@@ -49,7 +49,7 @@ pub fn closed_form_factored<T: Real, const N: usize, const M: usize>(
     }
 }
 
-/// `improved-closed-form` (SPEC, Pott 2013, Sect. 2): while some tension is
+/// `improved-closed-form` (conventions, Pott 2013, Sect. 2): while some tension is
 /// out of bounds, fix the cable with the largest violation at the bound it
 /// violates and solve the reduced closed form (Eq. 4). At most `M - N + 1`
 /// closed-form evaluations.

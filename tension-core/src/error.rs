@@ -1,7 +1,7 @@
 //! The typed error every fallible call returns.
 
 /// Why no tension vector was returned. Each variant has a one-word status
-/// ([`Error::status`]) used in the SPEC's CSV tables and in telemetry.
+/// ([`Error::status`]) used in the conventions' CSV tables and in telemetry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Error {
     /// An input (pose, wrench, geometry, limits, warm start) holds NaN or an
@@ -28,7 +28,7 @@ pub enum Error {
 }
 
 impl Error {
-    /// The one-word status of the SPEC's tension tables.
+    /// The one-word status of the conventions' tension tables.
     pub fn status(self) -> &'static str {
         match self {
             Error::NonFinite => "nonfinite",

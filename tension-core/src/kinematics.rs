@@ -1,5 +1,5 @@
 //! Robot geometry, cable kinematics, the wrench matrix and the external
-//! wrench, exactly as `SPEC.md` ("Poses", "Wrench matrix and equilibrium").
+//! wrench, exactly as `docs/conventions.md` ("Poses", "Wrench matrix and equilibrium").
 //!
 //! * Pose `[x, y, z, rx, ry, rz]` (spatial6), `R = Rx(rx) Ry(ry) Rz(rz)`;
 //!   `[x, y, theta]` (planar3); `[x, y]` (planar2, attachments ignored).
@@ -15,7 +15,7 @@ use crate::{
     Error, Real, TensionLimits,
 };
 
-/// A pose: `N` numbers in the SPEC's order for the robot's kind.
+/// A pose: `N` numbers in the conventions' order for the robot's kind.
 pub type Pose<T, const N: usize> = SVector<T, N>;
 
 /// The robot's kind, which fixes its number of degrees of freedom.
@@ -39,7 +39,7 @@ impl RobotKind {
         }
     }
 
-    /// The SPEC's name (`spatial6`, `planar3`, `planar2`).
+    /// The conventions' name (`spatial6`, `planar3`, `planar2`).
     pub const fn name(self) -> &'static str {
         match self {
             RobotKind::Spatial6 => "spatial6",
@@ -48,7 +48,7 @@ impl RobotKind {
         }
     }
 
-    /// Parses the SPEC's name.
+    /// Parses the conventions' name.
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
             "spatial6" => Some(RobotKind::Spatial6),
@@ -59,7 +59,7 @@ impl RobotKind {
     }
 }
 
-/// Mass properties of the platform (SPEC `[platform]`).
+/// Mass properties of the platform (conventions: `[platform]`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Platform<T: Real> {
     /// Mass, kg (with payload).
@@ -72,7 +72,7 @@ pub struct Platform<T: Real> {
     pub inertia: Matrix3<T>,
 }
 
-/// Winch data for torque commands (SPEC `[winch]`).
+/// Winch data for torque commands (conventions: `[winch]`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Winch<T: Real> {
     /// Drum radius, m.
@@ -112,7 +112,7 @@ impl<T: Real> Winch<T> {
         Ok(Self { drum_radius, gear_ratio, efficiency, torque_max })
     }
 
-    /// SPEC: `tau = t * drum_radius / (gear_ratio * efficiency)`, never beyond
+    /// conventions: `tau = t * drum_radius / (gear_ratio * efficiency)`, never beyond
     /// `+-torque_max`; the limiting is reported, not hidden.
     pub fn motor_torque(&self, tension: T) -> Result<MotorTorque<T>, Error> {
         if !tension.is_finite() {
@@ -288,7 +288,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         &self.attachments
     }
 
-    /// Position `p` and rotation `R` of a pose (SPEC "Poses").
+    /// Position `p` and rotation `R` of a pose (conventions, "Poses").
     pub fn frame(&self, pose: &Pose<T, N>) -> Result<(Vector3<T>, Matrix3<T>), Error> {
         if !finite(pose.as_slice()) {
             return Err(Error::NonFinite);
@@ -356,7 +356,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         Ok(state)
     }
 
-    /// The wrench matrix `W` (`N x M`) at a pose (SPEC).
+    /// The wrench matrix `W` (`N x M`) at a pose (conventions).
     pub fn wrench_matrix(&self, pose: &Pose<T, N>) -> Result<SMatrix<T, N, M>, Error> {
         let cables = self.cables(pose)?;
         Ok(self.wrench_matrix_of(&cables))
@@ -390,7 +390,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         w
     }
 
-    /// The external wrench `w_e` on the platform (SPEC): gravity `m g` at the
+    /// The external wrench `w_e` on the platform (conventions): gravity `m g` at the
     /// centre of mass `R c`, plus `extra`, plus with `motion` the d'Alembert
     /// inertial wrench `-(m a_c, I_w alpha + omega x I_w omega)`, where
     /// `a_c = p'' + alpha x R c + omega x (omega x R c)` and `I_w = R I R^T`.

@@ -1,7 +1,7 @@
 //! # tension-core
 //!
 //! Kinematics and tension distribution for cable-driven parallel robots
-//! (CDPRs), following the project's `SPEC.md`: frames, the XYZ Euler
+//! (CDPRs), following the project's `docs/conventions.md`: frames, the XYZ Euler
 //! convention, the wrench matrix `W` and the method names.
 //!
 //! * `#![no_std]`, no `alloc`, no `unsafe`; every matrix has a size fixed at

@@ -5,7 +5,7 @@ use nalgebra::SVector;
 use crate::{scalar::finite, Error, Real};
 
 /// Lower and upper tension limit of every cable, `0 <= t_min < t_max`
-/// (SPEC "Robot description files": the same for every cable unless a cable
+/// (conventions, "Robot description files": the same for every cable unless a cable
 /// overrides).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TensionLimits<T: Real, const M: usize> {

@@ -14,7 +14,7 @@ use crate::{
     Error, Real, Solution, TensionLimits,
 };
 
-/// The tension distribution methods, named as in the SPEC.
+/// The tension distribution methods, named as in the conventions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Method {
     /// `barycenter`: Lamaury & Gouttefarde 2013 (`M = N + 2`).
@@ -40,7 +40,7 @@ pub enum Method {
 }
 
 impl Method {
-    /// Every method, in the SPEC's order.
+    /// Every method, in the conventions' order.
     pub const ALL: [Method; 10] = [
         Method::Barycenter,
         Method::BarycenterBrute,
@@ -54,7 +54,7 @@ impl Method {
         Method::OptimallySafe,
     ];
 
-    /// The SPEC's name.
+    /// The conventions' name.
     pub const fn name(self) -> &'static str {
         match self {
             Method::Barycenter => "barycenter",
@@ -70,7 +70,7 @@ impl Method {
         }
     }
 
-    /// Parses the SPEC's name.
+    /// Parses the conventions' name.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }

@@ -1,5 +1,5 @@
-//! Test support shared by the workspace's integration tests: the shared robot
-//! files, and reference computations written independently of
+//! Test support shared by the workspace's integration tests: the robot
+//! files in `robots/`, and reference computations written independently of
 //! `tension-core`'s own algorithms (different decompositions, a different
 //! polygon construction), so that a bug in one is not copied into the check.
 
@@ -10,14 +10,14 @@ use proptest::prelude::*;
 use robot_file::RobotFile;
 use tension_core::{Real, Robot, TensionLimits};
 
-/// `../shared` beside the repository (read-only in CI).
-pub fn shared_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..").join("shared")
+/// The repository's `robots/` folder, the one source of robot files.
+pub fn robots_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("robots")
 }
 
-/// Loads `../shared/robots/<name>.toml` as an `N x M` robot.
-pub fn shared_robot<T: Real, const N: usize, const M: usize>(name: &str) -> Robot<T, N, M> {
-    let path = shared_dir().join("robots").join(format!("{name}.toml"));
+/// Loads `robots/<name>.toml` as an `N x M` robot.
+pub fn shipped_robot<T: Real, const N: usize, const M: usize>(name: &str) -> Robot<T, N, M> {
+    let path = robots_dir().join(format!("{name}.toml"));
     RobotFile::load(&path)
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .to_robot()

@@ -40,7 +40,7 @@ use tension_core::{Method, Robot, TensionSolver};
 /// The product firmware's ELF (built by `firmware::build_product`).
 pub const ELF: &str = "target/thumbv7em-none-eabihf/release/firmware";
 /// The robot the firmware's constants describe.
-const ROBOT_FILE: &str = "../shared/robots/suspended-8.toml";
+const ROBOT_FILE: &str = "robots/suspended-8.toml";
 
 /// Stated tolerance of the firmware's f32 tensions against the host's f64
 /// barycenter, as a fraction of `t_max - t_min` (345 N for suspended-8):
@@ -204,8 +204,8 @@ impl Session {
     }
 }
 
-/// The host's reference: `f64` barycenter tensions and SPEC motor torques
-/// for a setpoint, from the shared robot file.
+/// The host's reference: `f64` barycenter tensions and conventions motor torques
+/// for a setpoint, from the robot file.
 fn reference(robot: &Robot68, method: Method, s: &Setpoint) -> Result<([f64; 8], [f64; 8]), String> {
     let v = |a: &[f32; 6]| SVector::<f64, 6>::from_fn(|i, _| f64::from(a[i]));
     let (w, f) = robot
