@@ -2,12 +2,10 @@
 //! it grows with the number of cables (`cargo bench --bench methods`).
 //!
 //! * 1000 feasible poses along a smooth 1 kHz path (1 s) of suspended-8 and of
-//!   IPAnema 1, in `f64` and `f32`: `barycenter` warm (the previous pose's
-//!   active pair) and cold, `barycenter-brute`, `analytic-centre` warm (the
-//!   previous pose's tensions) and cold, `closed-form`, `improved-closed-form`,
-//!   `puncture`, `improved-puncture`, `min-2-norm` and `min-1-norm` (warm: the
-//!   walk's active pair), `optimally-safe`, and a bounded QP (minimum 2-norm within the limits) solved by `clarabel`,
-//!   what a user would otherwise reach for.
+//!   IPAnema 1, in `f64` and `f32`: every method of `Method::ALL` through
+//!   `TensionSolver`, warm (the solver's carried state) and, for the methods
+//!   that warm-start, cold; and a bounded QP (minimum 2-norm within the
+//!   limits) solved by `clarabel`, what a user would otherwise reach for.
 //! * Scaling: `analytic-centre` and `improved-closed-form` for 6 DOF with 7 to
 //!   12 cables.
 //!
@@ -23,8 +21,7 @@ use clarabel::{algebra::CscMatrix, solver::*};
 use criterion::Criterion;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use tension_core::{
-    analytic_centre, barycenter, barycenter_brute, closed_form, improved_closed_form, ActivePair, Platform,
-    Real, Robot, RobotKind, TensionLimits,
+    solve, Method, Platform, PreviousCycle, Real, Robot, RobotKind, TensionLimits, TensionSolver,
 };
 
 /// One pose: `W` and `f`.
@@ -58,92 +55,62 @@ fn path<T: Real, const M: usize>(
         .collect()
 }
 
+/// What is timed: a method through `TensionSolver` (warm: the solver's
+/// carried state; cold: reset before every pose), or the reference QP.
 #[derive(Clone, Copy, PartialEq)]
 enum Variant {
-    BarycenterWarm,
-    BarycenterCold,
-    BarycenterBrute,
-    AnalyticCentreWarm,
-    AnalyticCentreCold,
-    ClosedForm,
-    ImprovedClosedForm,
-    Puncture,
-    ImprovedPuncture,
-    Min2Norm,
-    Min1Norm,
-    OptimallySafe,
+    Method { method: Method, warm: bool },
     QpClarabel,
 }
 
 impl Variant {
-    const ALL: [Variant; 13] = [
-        Variant::BarycenterWarm,
-        Variant::BarycenterCold,
-        Variant::BarycenterBrute,
-        Variant::AnalyticCentreWarm,
-        Variant::AnalyticCentreCold,
-        Variant::ClosedForm,
-        Variant::ImprovedClosedForm,
-        Variant::Puncture,
-        Variant::ImprovedPuncture,
-        Variant::Min2Norm,
-        Variant::Min1Norm,
-        Variant::OptimallySafe,
-        Variant::QpClarabel,
-    ];
+    /// Every method of `Method::ALL` (warm and cold where it warm-starts),
+    /// then the QP.
+    fn all() -> Vec<Variant> {
+        let mut all = Vec::new();
+        for method in Method::ALL {
+            all.push(Variant::Method { method, warm: true });
+            if method.warm_starts() {
+                all.push(Variant::Method { method, warm: false });
+            }
+        }
+        all.push(Variant::QpClarabel);
+        all
+    }
 
-    fn name(self) -> &'static str {
+    fn name(self) -> String {
         match self {
-            Variant::BarycenterWarm => "barycenter (warm)",
-            Variant::BarycenterCold => "barycenter (cold)",
-            Variant::BarycenterBrute => "barycenter-brute",
-            Variant::AnalyticCentreWarm => "analytic-centre (warm)",
-            Variant::AnalyticCentreCold => "analytic-centre (cold)",
-            Variant::ClosedForm => "closed-form",
-            Variant::ImprovedClosedForm => "improved-closed-form",
-            Variant::Puncture => "puncture",
-            Variant::ImprovedPuncture => "improved-puncture",
-            Variant::Min2Norm => "min-2-norm (warm)",
-            Variant::Min1Norm => "min-1-norm (warm)",
-            Variant::OptimallySafe => "optimally-safe",
-            Variant::QpClarabel => "QP min |t|_2 (clarabel)",
+            Variant::Method { method, warm } if method.warm_starts() => {
+                format!("{} ({})", method.name(), if warm { "warm" } else { "cold" })
+            }
+            Variant::Method { method, .. } => method.name().to_string(),
+            Variant::QpClarabel => "QP min |t|_2 (clarabel)".to_string(),
         }
     }
 }
 
 /// Carries the warm-start state from one pose to the next.
 struct Runner<T: Real, const M: usize> {
-    pair: Option<ActivePair>,
-    previous: Option<SVector<T, M>>,
+    solver: Option<TensionSolver<T, M>>,
 }
 
 impl<T: Real, const M: usize> Runner<T, M> {
-    fn new() -> Self {
-        Self { pair: None, previous: None }
+    fn new(variant: Variant) -> Self {
+        match variant {
+            Variant::Method { method, .. } => Self { solver: Some(TensionSolver::new(method)) },
+            Variant::QpClarabel => Self { solver: None },
+        }
     }
 
     /// Solves one pose; `false` if the method failed there.
     fn solve(&mut self, variant: Variant, case: &Case<T, M>, limits: &TensionLimits<T, M>) -> bool {
         let (w, f) = case;
-        let result = match variant {
-            Variant::BarycenterWarm => barycenter(w, f, limits, self.pair),
-            Variant::BarycenterCold => barycenter(w, f, limits, None),
-            Variant::BarycenterBrute => barycenter_brute(w, f, limits),
-            Variant::AnalyticCentreWarm => analytic_centre(w, f, limits, self.previous.as_ref()),
-            Variant::AnalyticCentreCold => analytic_centre(w, f, limits, None),
-            Variant::ClosedForm => closed_form(w, f, limits),
-            Variant::ImprovedClosedForm => improved_closed_form(w, f, limits),
-            Variant::Puncture => tension_core::puncture(w, f, limits),
-            Variant::ImprovedPuncture => tension_core::improved_puncture(w, f, limits),
-            Variant::Min2Norm => tension_core::min_2_norm(w, f, limits, self.pair),
-            Variant::Min1Norm => tension_core::min_1_norm(w, f, limits, self.pair),
-            Variant::OptimallySafe => tension_core::optimally_safe(w, f, limits),
-            Variant::QpClarabel => return qp(w, f, limits),
-        };
-        match result {
+        let Some(solver) = self.solver.as_mut() else { return qp(w, f, limits) };
+        if variant == (Variant::Method { method: solver.method(), warm: false }) {
+            solver.reset();
+        }
+        match solver.solve(w, f, limits) {
             Ok(sol) => {
-                self.pair = sol.diagnostics.active_pair;
-                self.previous = Some(sol.tensions);
                 black_box(sol);
                 true
             }
@@ -187,7 +154,7 @@ fn qp<T: Real, const M: usize>(
 }
 
 struct Row {
-    name: &'static str,
+    name: String,
     median: f64,
     worst: f64,
     failures: usize,
@@ -206,7 +173,7 @@ fn table<T: Real, const M: usize>(
             let mut times = Vec::with_capacity(rounds * cases.len());
             let mut failures = 0;
             for _ in 0..rounds {
-                let mut runner = Runner::new();
+                let mut runner = Runner::new(variant);
                 for case in cases {
                     let start = Instant::now();
                     let ok = runner.solve(variant, case, limits);
@@ -248,17 +215,17 @@ fn bench_robot<T: Real>(c: &mut Criterion, name: &str, label: &str, shape: [[f64
     let robot: Robot<T, 6, 8> = shipped_robot(name);
     let cases = path(&robot, shape[0], shape[1], shape[2], 1000);
     let limits = *robot.limits();
-    let variants = Variant::ALL;
+    let variants = Variant::all();
     // Every pose is feasible for the barycenter.
     assert!(
-        cases.iter().all(|(w, f)| barycenter(w, f, &limits, None).is_ok()),
+        cases.iter().all(|(w, f)| solve(Method::Barycenter, w, f, &limits, &PreviousCycle::NONE).is_ok()),
         "{label}: path leaves the workspace"
     );
     let mut group = c.benchmark_group(label);
     group.sample_size(20);
     for &variant in &variants {
         group.bench_function(variant.name(), |b| {
-            let mut runner = Runner::new();
+            let mut runner = Runner::new(variant);
             b.iter(|| {
                 for case in &cases {
                     runner.solve(variant, case, &limits);
@@ -305,9 +272,13 @@ fn scaling<const M: usize>(c: &mut Criterion, rows: &mut Vec<(usize, f64, f64)>)
     let mut group = c.benchmark_group(format!("scaling/6x{M}"));
     group.sample_size(10);
     let mut medians = [0.0; 2];
-    for (k, variant) in [Variant::AnalyticCentreWarm, Variant::ImprovedClosedForm].into_iter().enumerate() {
+    let variants = [
+        Variant::Method { method: Method::AnalyticCentre, warm: true },
+        Variant::Method { method: Method::ImprovedClosedForm, warm: true },
+    ];
+    for (k, variant) in variants.into_iter().enumerate() {
         group.bench_function(variant.name(), |b| {
-            let mut runner = Runner::new();
+            let mut runner = Runner::new(variant);
             b.iter(|| {
                 for case in &cases {
                     runner.solve(variant, case, &limits);

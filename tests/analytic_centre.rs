@@ -5,12 +5,15 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use cdpr_integration_tests::{analytic_centre_residual, random_problem, shipped_robot, stationarity_residual};
+use cdpr_integration_tests::{
+    analytic_centre_residual, random_problem, shipped_robot, stationarity_residual,
+};
 use nalgebra::{DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
+use tension_core::linalg::WrenchFactorization;
 use tension_core::{
-    analytic_centre, barycenter, AnalyticCentre, BarrierWeights, ConvexConstraint, Error, Motion, Robot,
-    TensionLimits, WarmStart,
+    solve, AnalyticCentre, BarrierWeights, ConvexConstraint, Error, Method, Motion, PreviousCycle, Problem,
+    Robot, TensionLimits, WarmStart,
 };
 
 /// Random problems: every answer satisfies Eq. 15 and the limits; a warm
@@ -22,7 +25,7 @@ fn random_cases<const N: usize, const M: usize>(cases: u32) {
     let mut runner = TestRunner::new(ProptestConfig::with_cases(cases));
     runner
         .run(&random_problem::<N, M>(3.0), |(w, f, limits)| {
-            match analytic_centre(&w, &f, &limits, None) {
+            match solve(Method::AnalyticCentre, &w, &f, &limits, &PreviousCycle::NONE) {
                 Ok(sol) => {
                     let t = sol.tensions;
                     for i in 0..M {
@@ -34,7 +37,14 @@ fn random_cases<const N: usize, const M: usize>(cases: u32) {
                     prop_assert!(sol.diagnostics.iterations <= 50);
                     // Warm start from a point nudged towards the box centre.
                     let nudged = t + (limits.middle() - t) * 1e-3;
-                    let warm = analytic_centre(&w, &f, &limits, Some(&nudged)).unwrap();
+                    let warm = solve(
+                        Method::AnalyticCentre,
+                        &w,
+                        &f,
+                        &limits,
+                        &PreviousCycle::tensions(Some(nudged)),
+                    )
+                    .unwrap();
                     prop_assert!((warm.tensions - t).amax() < 1e-6 * limits.scale());
                     prop_assert_eq!(warm.diagnostics.warm_start, WarmStart::Held);
                     solved.fetch_add(1, Ordering::Relaxed);
@@ -43,7 +53,7 @@ fn random_cases<const N: usize, const M: usize>(cases: u32) {
                     // A strictly feasible point would contradict the certificate:
                     // when the barycenter (r = 2) finds a polygon with room, fail.
                     if M == N + 2 {
-                        if let Ok(b) = barycenter(&w, &f, &limits, None) {
+                        if let Ok(b) = solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::NONE) {
                             prop_assert!(
                                 b.robustness <= 1e-6 * limits.scale(),
                                 "certified infeasible, barycenter robustness {}",
@@ -54,7 +64,7 @@ fn random_cases<const N: usize, const M: usize>(cases: u32) {
                 }
                 Err(Error::NoConvergence) => {
                     if M == N + 2 {
-                        if let Ok(b) = barycenter(&w, &f, &limits, None) {
+                        if let Ok(b) = solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::NONE) {
                             prop_assert!(
                                 b.robustness <= 1e-3 * limits.scale(),
                                 "no convergence though barycenter robustness {}",
@@ -106,7 +116,7 @@ fn no_redundancy_gives_the_unique_solution() {
     let w = SMatrix::<f64, 2, 2>::new(1.0, 0.0, 0.0, 2.0);
     let f = SVector::<f64, 2>::new(5.0, 8.0);
     let limits = TensionLimits::uniform(1.0, 10.0).unwrap();
-    let sol = analytic_centre(&w, &f, &limits, None).unwrap();
+    let sol = solve(Method::AnalyticCentre, &w, &f, &limits, &PreviousCycle::NONE).unwrap();
     assert!((sol.tensions - SVector::<f64, 2>::new(5.0, 4.0)).amax() < 1e-12);
 }
 
@@ -119,7 +129,7 @@ fn motivating_example_black_case() {
     let w = SMatrix::<f64, 1, 2>::new(-7.0, 20.0);
     let f = SVector::<f64, 1>::new(1790.0);
     let limits = TensionLimits::uniform(10.0, 100.0).unwrap();
-    let sol = analytic_centre(&w, &f, &limits, None).unwrap();
+    let sol = solve(Method::AnalyticCentre, &w, &f, &limits, &PreviousCycle::NONE).unwrap();
     let t2 = |t1: f64| (1790.0 + 7.0 * t1) / 20.0;
     let dphi = |t1: f64| {
         let s = 7.0 / 20.0;
@@ -139,7 +149,10 @@ fn motivating_example_black_case() {
     assert!((sol.tensions[1] - t2(lo)).abs() < 1e-9);
     // The paper's point: the closed form leaves the box here (Fig. 1-b),
     // (55, 55) + (-7, 20) 1075 / 449 = (38.24, 102.88), the centre does not.
-    assert_eq!(tension_core::closed_form(&w, &f, &limits).unwrap_err(), Error::MethodFailed);
+    assert_eq!(
+        solve(Method::ClosedForm, &w, &f, &limits, &PreviousCycle::NONE).unwrap_err(),
+        Error::MethodFailed
+    );
 }
 
 /// The blue and green cases of the same example are close data with close
@@ -147,26 +160,30 @@ fn motivating_example_black_case() {
 #[test]
 fn motivating_example_blue_and_green_are_close() {
     let limits = TensionLimits::uniform(10.0, 100.0).unwrap();
-    let blue = analytic_centre(
+    let blue = solve(
+        Method::AnalyticCentre,
         &SMatrix::<f64, 1, 2>::new(-1.0, 50.0),
         &SVector::<f64, 1>::new(945.0),
         &limits,
-        None,
+        &PreviousCycle::NONE,
     )
     .unwrap();
-    let green = analytic_centre(
+    let green = solve(
+        Method::AnalyticCentre,
         &SMatrix::<f64, 1, 2>::new(1.0, 50.0),
         &SVector::<f64, 1>::new(1055.0),
         &limits,
-        None,
+        &PreviousCycle::NONE,
     )
     .unwrap();
     assert!((blue.tensions - green.tensions).amax() < 5.0, "{:?} {:?}", blue.tensions, green.tensions);
     // Closed form (hand-computed): blue (55.70, 20.01), green (54.30, 20.01).
-    let cf = tension_core::closed_form(
+    let cf = solve(
+        Method::ClosedForm,
         &SMatrix::<f64, 1, 2>::new(-1.0, 50.0),
         &SVector::<f64, 1>::new(945.0),
         &limits,
+        &PreviousCycle::NONE,
     )
     .unwrap();
     assert!((cf.tensions[0] - (55.0 + 1750.0 / 2501.0)).abs() < 1e-9);
@@ -179,14 +196,16 @@ fn weights_push_away_from_their_bound() {
     let pose = SVector::<f64, 6>::new(0.2, -0.1, 1.2, 0.05, -0.05, 0.1);
     let w = robot.wrench_matrix(&pose).unwrap();
     let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
-    let plain = analytic_centre(&w, &f, robot.limits(), None).unwrap();
+    let plain = solve(Method::AnalyticCentre, &w, &f, robot.limits(), &PreviousCycle::NONE).unwrap();
     let mut lower = SVector::<f64, 8>::repeat(1.0);
     lower[0] = 20.0;
-    let problem = AnalyticCentre {
+    let centre = AnalyticCentre {
         weights: BarrierWeights::new(lower, SVector::repeat(1.0)).unwrap(),
         ..AnalyticCentre::default()
     };
-    let weighted = problem.solve(&w, &f, robot.limits(), None).unwrap();
+    let fact = WrenchFactorization::new(&w).unwrap();
+    let problem = Problem { w: &w, f: &f, limits: robot.limits(), factorization: &fact };
+    let weighted = centre.solve(&problem, None).unwrap();
     assert!(weighted.tensions[0] > plain.tensions[0]);
     // Weighted Eq. 15.
     let t = weighted.tensions;
@@ -260,8 +279,10 @@ fn friction_constraints_of_a_mobile_base() {
         let constraints: [&dyn ConvexConstraint<f64, 4>; 2] = [&base1, &base2];
         let w = robot.wrench_matrix(&pose).unwrap();
         let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
-        let problem = AnalyticCentre { constraints: &constraints, ..AnalyticCentre::default() };
-        let sol = problem.solve(&w, &f, robot.limits(), previous.as_ref()).unwrap();
+        let centre = AnalyticCentre { constraints: &constraints, ..AnalyticCentre::default() };
+        let fact = WrenchFactorization::new(&w).unwrap();
+        let problem = Problem { w: &w, f: &f, limits: robot.limits(), factorization: &fact };
+        let sol = centre.solve(&problem, previous.as_ref()).unwrap();
         let t = sol.tensions;
         assert!(base1.value(&t) < 0.0 && base2.value(&t) < 0.0);
         let grad = DVector::from_fn(4, |i, _| {
@@ -272,7 +293,7 @@ fn friction_constraints_of_a_mobile_base() {
         });
         let (stationarity, eq) = stationarity_residual(&w, &grad, robot.limits(), &t, &f);
         assert!(stationarity < 1e-8 && eq < 1e-10, "{stationarity} {eq}");
-        let free = analytic_centre(&w, &f, robot.limits(), None).unwrap();
+        let free = solve(Method::AnalyticCentre, &w, &f, robot.limits(), &PreviousCycle::NONE).unwrap();
         if base1.value(&free.tensions) > 0.0 || base2.value(&free.tensions) > 0.0 {
             slid_without += 1;
         }
@@ -291,8 +312,8 @@ fn symmetric_pose_gives_symmetric_answer() {
     let w = robot.wrench_matrix(&pose).unwrap();
     let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
     for t in [
-        analytic_centre(&w, &f, robot.limits(), None).unwrap().tensions,
-        barycenter(&w, &f, robot.limits(), None).unwrap().tensions,
+        solve(Method::AnalyticCentre, &w, &f, robot.limits(), &PreviousCycle::NONE).unwrap().tensions,
+        solve(Method::Barycenter, &w, &f, robot.limits(), &PreviousCycle::NONE).unwrap().tensions,
     ] {
         for i in 1..4 {
             assert!((t[i] - t[0]).abs() < 1e-9, "{t:?}");

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use proptest::{prelude::*, test_runner::TestRunner};
 use tension_core::{
-    barycenter, barycenter_brute, polygon::FeasiblePolygon, ActivePair, Error, TensionLimits, WarmStart,
+    polygon::FeasiblePolygon, solve, ActivePair, Error, Method, PreviousCycle, TensionLimits, WarmStart,
 };
 
 /// Relative agreement of two tension vectors against the tension scale.
@@ -36,8 +36,8 @@ fn compare<const N: usize, const M: usize>(
     f: SVector<f64, N>,
     limits: TensionLimits<f64, M>,
 ) -> bool {
-    let walk = barycenter(&w, &f, &limits, None);
-    let brute = barycenter_brute(&w, &f, &limits);
+    let walk = solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::NONE);
+    let brute = solve(Method::BarycenterBrute, &w, &f, &limits, &PreviousCycle::NONE);
     let reference = reference_barycenter(&w, &f, &limits);
     let scale = limits.scale();
     match (&walk, &brute) {
@@ -56,7 +56,8 @@ fn compare<const N: usize, const M: usize>(
             }
             // Warm start from the returned pair gives the same answer.
             let pair = a.diagnostics.active_pair.expect("pair");
-            let warm = barycenter(&w, &f, &limits, Some(pair)).expect("warm");
+            let warm =
+                solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::pair(Some(pair))).expect("warm");
             assert_eq!(warm.diagnostics.warm_start, WarmStart::Held);
             assert!(close(&a.tensions, &warm.tensions, scale, 1e-9));
             true

@@ -6,7 +6,7 @@
 use cdpr_integration_tests::random_problem;
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use proptest::prelude::*;
-use tension_core::{barycenter, closed_form, improved_closed_form, Error, TensionLimits};
+use tension_core::{solve, Error, Method, PreviousCycle, TensionLimits};
 
 fn pinv_solve(w: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
     w.clone().svd(true, true).solve(b, 1e-12).expect("svd")
@@ -76,7 +76,7 @@ fn check<const N: usize, const M: usize>(
     let fd = DVector::from_fn(N, |r, _| f[r]);
     let plain = &middle + pinv_solve(&wd, &(&fd - &wd * &middle));
     let plain_ok = plain.iter().all(|&t| t >= lo && t <= hi);
-    let cf = closed_form(&w, &f, &limits);
+    let cf = solve(Method::ClosedForm, &w, &f, &limits, &PreviousCycle::NONE);
     match &cf {
         Ok(sol) => {
             prop_assert!(plain_ok || plain.iter().all(|&t| t >= lo - 1e-9 * scale && t <= hi + 1e-9 * scale));
@@ -94,7 +94,7 @@ fn check<const N: usize, const M: usize>(
         }
         Err(e) => prop_assert!(false, "closed form: {e:?}"),
     }
-    let icf = improved_closed_form(&w, &f, &limits);
+    let icf = solve(Method::ImprovedClosedForm, &w, &f, &limits, &PreviousCycle::NONE);
     let reference = reference_improved(&w, &f, lo, hi);
     match (&icf, &reference) {
         (Ok(sol), Some(r)) => {
@@ -120,7 +120,7 @@ fn check<const N: usize, const M: usize>(
     }
     // Infeasible is never claimed for a feasible pose (checked with the barycenter, r = 2).
     if M == N + 2 && matches!(icf, Err(Error::Infeasible)) {
-        if let Ok(b) = barycenter(&w, &f, &limits, None) {
+        if let Ok(b) = solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::NONE) {
             prop_assert!(b.robustness < 1e-9 * scale);
         }
     }
@@ -152,15 +152,18 @@ fn improved_form_extends_the_plain_one_near_the_border() {
     let w = SMatrix::<f64, 2, 4>::new(1.0, 1.0, 1.0, 1.0, 1.0, -1.0, 2.0, -2.0);
     let limits = TensionLimits::uniform(1.0, 10.0).unwrap();
     let f = SVector::<f64, 2>::new(36.0, 0.0);
-    let sol = closed_form(&w, &f, &limits).unwrap();
+    let sol = solve(Method::ClosedForm, &w, &f, &limits, &PreviousCycle::NONE).unwrap();
     assert!((sol.tensions - SVector::<f64, 4>::repeat(9.0)).amax() < 1e-12);
     // f = (24, 22): W t_m = (22, 0), correction W^+ (2, 22) = 0.5 (1,1,1,1) + 2.2 (1,-1,2,-2)
     // -> (8.2, 3.8, 10.4, 1.6): cable 3 above 10. Fixing it at 10 leaves
     // W' = [1 1 1; 1 -1 -2], f' = (14, 2); from 5.5 the residual is (-2.5, 13),
     // W' W'^T = [3 -2; -2 6], y = [6 2; 2 3] / 14 (-2.5, 13) = (11/14, 34/14).
     let f = SVector::<f64, 2>::new(24.0, 22.0);
-    assert_eq!(closed_form(&w, &f, &limits).unwrap_err(), Error::MethodFailed);
-    let sol = improved_closed_form(&w, &f, &limits).unwrap();
+    assert_eq!(
+        solve(Method::ClosedForm, &w, &f, &limits, &PreviousCycle::NONE).unwrap_err(),
+        Error::MethodFailed
+    );
+    let sol = solve(Method::ImprovedClosedForm, &w, &f, &limits, &PreviousCycle::NONE).unwrap();
     assert_eq!(sol.tensions[2], 10.0);
     assert_eq!(sol.diagnostics.fixed_cables, 1);
     let (y0, y1) = (11.0 / 14.0, 34.0 / 14.0);

@@ -269,7 +269,9 @@ fn nearly_coincident_lines_do_not_make_a_jump() {
     let solve = |pose: &SVector<f64, 6>| {
         let w = robot.wrench_matrix(pose).unwrap();
         let f = robot.required_wrench(pose, &SVector::zeros(), None).unwrap();
-        tension_core::barycenter(&w, &f, robot.limits(), None).unwrap().tensions
+        tension_core::solve(Method::Barycenter, &w, &f, robot.limits(), &tension_core::PreviousCycle::NONE)
+            .unwrap()
+            .tensions
     };
     let (a, b) = (solve(&centre), solve(&nudged));
     assert!((a - b).amax() < 1e-9, "{a:?} vs {b:?}");

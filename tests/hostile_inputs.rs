@@ -6,7 +6,7 @@ use cdpr_integration_tests::shipped_robot;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
 use proptest::prelude::*;
 use tension_core::{
-    analytic_centre, barycenter, polygon::FeasiblePolygon, Error, Method, Platform, Real, Robot, RobotKind,
+    polygon::FeasiblePolygon, solve, Error, Method, Platform, PreviousCycle, Real, Robot, RobotKind,
     TensionLimits, TensionSolver,
 };
 
@@ -42,34 +42,56 @@ fn hostile_f32() -> impl Strategy<Value = f32> {
     ]
 }
 
-/// Every method on a robot built from the given numbers: a typed error or a
-/// tension vector that balances the wrench within the limits.
-fn exercise<T: Real + std::fmt::Debug, const N: usize, const M: usize>(kind: RobotKind, numbers: &[T]) {
-    let v = |k: usize| Vector3::new(numbers[k], numbers[k + 1], numbers[k + 2]);
+/// How far the cases of a campaign got: robots built, wrenches computed,
+/// and method answers checked against `W t = f` and the limits (the asserts).
+#[derive(Debug, Default, Clone, Copy)]
+struct Reach {
+    cases: usize,
+    robots: usize,
+    wrenches: usize,
+    checked: usize,
+    cases_checked: usize,
+}
+
+/// Every method on a robot built from `base + numbers` (`base` a plausible
+/// layout, or zeros for raw numbers): a typed error or a tension vector that
+/// balances the wrench within the limits. Counts what reached the checks.
+fn exercise<T: Real + std::fmt::Debug, const N: usize, const M: usize>(
+    kind: RobotKind,
+    numbers: &[T],
+    base: &[T],
+    reach: &mut Reach,
+) {
+    reach.cases += 1;
+    let x = |k: usize| base[k] + numbers[k];
+    let v = |k: usize| Vector3::new(x(k), x(k + 1), x(k + 2));
     let anchors: [Vector3<T>; M] = core::array::from_fn(|i| v(3 * i));
     let attach: [Vector3<T>; M] = core::array::from_fn(|i| v(3 * M + 3 * i));
-    let base = 6 * M;
-    let pose = SVector::<T, N>::from_fn(|i, _| numbers[base + i]);
-    let extra = SVector::<T, N>::from_fn(|i, _| numbers[base + N + i]);
-    let (lo, hi) = (numbers[base + 2 * N], numbers[base + 2 * N + 1]);
+    let b = 6 * M;
+    let pose = SVector::<T, N>::from_fn(|i, _| x(b + i));
+    let extra = SVector::<T, N>::from_fn(|i, _| x(b + N + i));
+    let (lo, hi) = (x(b + 2 * N), x(b + 2 * N + 1));
     let Ok(limits) = TensionLimits::uniform(lo, hi) else {
         return;
     };
     let platform = Platform {
-        mass: numbers[base + 2 * N + 2],
-        com: v(base + 2 * N + 3),
+        mass: x(b + 2 * N + 2),
+        com: v(b + 2 * N + 3),
         gravity: Vector3::new(T::zero(), T::zero(), T::lit(-9.81)),
         inertia: Matrix3::identity() * T::lit(0.01),
     };
     let Ok(robot) = Robot::<T, N, M>::new(kind, anchors, attach, limits, platform, None) else {
         return;
     };
+    reach.robots += 1;
     let Ok(w) = robot.wrench_matrix(&pose) else {
         return;
     };
     let Ok(f) = robot.required_wrench(&pose, &extra, None) else {
         return;
     };
+    reach.wrenches += 1;
+    let checked_before = reach.checked;
     for method in Method::ALL {
         if !method.supports(N, M) {
             continue;
@@ -86,33 +108,132 @@ fn exercise<T: Real + std::fmt::Debug, const N: usize, const M: usize>(kind: Rob
                 }
                 let r = (w * t - f).amax();
                 assert!(r <= T::lit(1e-2) * (T::one() + f.amax() + scale), "{method:?}: residual {r:?}");
+                reach.checked += 1;
             }
         }
     }
+    reach.cases_checked += usize::from(reach.checked > checked_before);
+}
+
+/// Number of values `exercise` reads for `N x M`.
+const fn input_len(n: usize, m: usize) -> usize {
+    6 * m + 2 * n + 6
+}
+
+/// A plausible robot to perturb: anchors on a frame around the platform
+/// (alternately high and low), small attachments, a pose near the middle,
+/// limits 1..1000 N, 1 kg (`kind`'s first coordinates only where planar).
+fn plausible_layout(n: usize, m: usize) -> Vec<f64> {
+    let mut base = vec![0.0; input_len(n, m)];
+    for i in 0..m {
+        let a = 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / m as f64;
+        let high = if n == 6 && i % 2 == 1 { 0.0 } else { 3.0 };
+        base[3 * i..3 * i + 3].copy_from_slice(&[
+            3.0 * a.cos(),
+            2.5 * a.sin(),
+            if n == 6 { high } else { 0.0 },
+        ]);
+        let b = 3 * m + 3 * i;
+        let z = if n == 6 {
+            if i % 2 == 0 {
+                0.1
+            } else {
+                -0.1
+            }
+        } else {
+            0.0
+        };
+        // Attachments turned against the anchors, alternately either way, so that
+        // the cables resist a twist both ways.
+        let c = if i % 2 == 0 { a + 0.6 } else { a - 0.6 };
+        base[b..b + 3].copy_from_slice(&[0.15 * c.cos(), 0.15 * c.sin(), z]);
+    }
+    let b = 6 * m;
+    if n == 6 {
+        base[b + 2] = 1.5;
+    }
+    base[b + 2 * n] = 1.0;
+    base[b + 2 * n + 1] = 1000.0;
+    base[b + 2 * n + 2] = 1.0;
+    base
+}
+
+/// Perturbations of +-20 % (relative), one value in 200 hostile (about one case in three
+/// of the plausible half then holds a hostile value somewhere).
+fn perturbation(hostile: impl Strategy<Value = f64> + Clone + 'static) -> BoxedStrategy<f64> {
+    prop_oneof![199 => -0.2f64..0.2, 1 => hostile].boxed()
+}
+
+/// A campaign of `cases` inputs for `N x M`: half raw hostile numbers, half
+/// hostile perturbations of [`plausible_layout`]. Returns how far they got.
+fn campaign<T: Real + std::fmt::Debug, const N: usize, const M: usize>(
+    kind: RobotKind,
+    cases: u32,
+    convert: fn(f64) -> T,
+    raw: BoxedStrategy<f64>,
+) -> Reach {
+    let len = input_len(N, M);
+    let layout_f64 = plausible_layout(N, M);
+    let layout: Vec<T> = layout_f64.iter().copied().map(convert).collect();
+    let zeros = vec![T::zero(); len];
+    let strategy = (
+        any::<bool>(),
+        prop::collection::vec(raw.clone(), len),
+        prop::collection::vec(perturbation(raw), len),
+    );
+    let reach = std::cell::Cell::new(Reach::default());
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig::with_cases(cases));
+    runner
+        .run(&strategy, |(plausible, raw_numbers, perturbed)| {
+            let mut r = reach.get();
+            if plausible {
+                // Perturbations relative to each value's size (at least 0.1).
+                let numbers: Vec<T> =
+                    perturbed.iter().zip(&layout_f64).map(|(d, x)| convert(d * x.abs().max(0.1))).collect();
+                exercise::<T, N, M>(kind, &numbers, &layout, &mut r);
+            } else {
+                let numbers: Vec<T> = raw_numbers.into_iter().map(convert).collect();
+                exercise::<T, N, M>(kind, &numbers, &zeros, &mut r);
+            }
+            reach.set(r);
+            Ok(())
+        })
+        .unwrap_or_else(|e| panic!("{kind:?} {N}x{M}: {e}"));
+    let r = reach.get();
+    println!("{kind:?} {N}x{M}: {r:?}");
+    r
+}
+
+/// At least a quarter of the cases must reach the checks with some method's
+/// answer, or the campaign tests nothing.
+fn assert_reached(r: Reach) {
+    assert!(r.cases_checked >= r.cases / 4, "too few cases checked: {r:?}");
+}
+
+#[test]
+fn arbitrary_bits_spatial_f64() {
+    assert_reached(campaign::<f64, 6, 8>(RobotKind::Spatial6, 3000, |x| x, hostile_f64().boxed()));
+}
+
+#[test]
+fn arbitrary_bits_spatial_f32() {
+    let raw = hostile_f32().prop_map(f64::from).boxed();
+    assert_reached(campaign::<f32, 6, 8>(RobotKind::Spatial6, 3000, |x| x as f32, raw));
+}
+
+#[test]
+fn arbitrary_bits_planar3_f64() {
+    assert_reached(campaign::<f64, 3, 5>(RobotKind::Planar3, 3000, |x| x, hostile_f64().boxed()));
+}
+
+#[test]
+fn arbitrary_bits_planar2_f32() {
+    let raw = hostile_f32().prop_map(f64::from).boxed();
+    assert_reached(campaign::<f32, 2, 4>(RobotKind::Planar2, 3000, |x| x as f32, raw));
 }
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(3000))]
-
-    #[test]
-    fn arbitrary_bits_spatial_f64(numbers in prop::collection::vec(hostile_f64(), 6 * 8 + 12 + 6)) {
-        exercise::<f64, 6, 8>(RobotKind::Spatial6, &numbers);
-    }
-
-    #[test]
-    fn arbitrary_bits_spatial_f32(numbers in prop::collection::vec(hostile_f32(), 6 * 8 + 12 + 6)) {
-        exercise::<f32, 6, 8>(RobotKind::Spatial6, &numbers);
-    }
-
-    #[test]
-    fn arbitrary_bits_planar3_f64(numbers in prop::collection::vec(hostile_f64(), 6 * 5 + 6 + 6)) {
-        exercise::<f64, 3, 5>(RobotKind::Planar3, &numbers);
-    }
-
-    #[test]
-    fn arbitrary_bits_planar2_f32(numbers in prop::collection::vec(hostile_f32(), 6 * 4 + 4 + 6)) {
-        exercise::<f32, 2, 4>(RobotKind::Planar2, &numbers);
-    }
 
     #[test]
     fn arbitrary_wrench_matrices(entries in prop::collection::vec(hostile_f64(), 6 * 8 + 6 + 8)) {
@@ -123,7 +244,7 @@ proptest! {
         for method in Method::ALL {
             let _ = TensionSolver::<f64, 8>::new(method).solve(&w, &f, &limits);
         }
-        let _ = analytic_centre(&w, &f, &limits, Some(&start));
+        let _ = solve(Method::AnalyticCentre, &w, &f, &limits, &PreviousCycle::tensions(Some(start)));
     }
 
     #[test]
@@ -170,7 +291,10 @@ fn nan_and_infinite_poses_are_nonfinite() {
     }
     let mut w_bad = w;
     w_bad[(3, 4)] = f64::INFINITY;
-    assert_eq!(barycenter(&w_bad, &f.map(|_| 1.0), robot.limits(), None).unwrap_err(), Error::NonFinite);
+    assert_eq!(
+        solve(Method::Barycenter, &w_bad, &f.map(|_| 1.0), robot.limits(), &PreviousCycle::NONE).unwrap_err(),
+        Error::NonFinite
+    );
 }
 
 #[test]
@@ -247,13 +371,22 @@ fn wrong_shapes_are_unsupported() {
     let w = SMatrix::<f64, 6, 9>::from_fn(|i, j| (((i * 9 + j) * (i * 9 + j)) as f64).sin());
     let f = SVector::<f64, 6>::repeat(1.0);
     let limits = TensionLimits::uniform(1.0, 10.0).unwrap();
-    assert_eq!(barycenter(&w, &f, &limits, None).unwrap_err(), Error::UnsupportedShape);
+    assert_eq!(
+        solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::NONE).unwrap_err(),
+        Error::UnsupportedShape
+    );
     assert!(!Method::Barycenter.supports(6, 9));
     assert!(Method::AnalyticCentre.supports(6, 9));
     let wide = SMatrix::<f64, 3, 2>::zeros();
     assert_eq!(
-        analytic_centre(&wide, &SVector::<f64, 3>::zeros(), &TensionLimits::uniform(1.0, 2.0).unwrap(), None)
-            .unwrap_err(),
+        solve(
+            Method::AnalyticCentre,
+            &wide,
+            &SVector::<f64, 3>::zeros(),
+            &TensionLimits::uniform(1.0, 2.0).unwrap(),
+            &PreviousCycle::NONE
+        )
+        .unwrap_err(),
         Error::UnsupportedShape
     );
 }

@@ -20,10 +20,7 @@ use cdpr_integration_tests::{
 };
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
-use tension_core::{
-    improved_closed_form, improved_puncture, min_1_norm, min_2_norm, optimally_safe, puncture, Error, Method,
-    Robot, TensionLimits, TensionSolver,
-};
+use tension_core::{solve, Error, Method, PreviousCycle, Robot, TensionLimits, TensionSolver};
 
 const NEW: [Method; 5] =
     [Method::Puncture, Method::ImprovedPuncture, Method::Min2Norm, Method::Min1Norm, Method::OptimallySafe];
@@ -130,9 +127,9 @@ fn polygon_methods<const N: usize, const M: usize>(
     let reference = ReferencePolygon::<M>::new(&w, &f, &limits);
     let scale = limits.scale();
     let results = [
-        min_2_norm(&w, &f, &limits, None),
-        min_1_norm(&w, &f, &limits, None),
-        optimally_safe(&w, &f, &limits),
+        solve(Method::Min2Norm, &w, &f, &limits, &PreviousCycle::NONE),
+        solve(Method::Min1Norm, &w, &f, &limits, &PreviousCycle::NONE),
+        solve(Method::OptimallySafe, &w, &f, &limits, &PreviousCycle::NONE),
     ];
     if reference.vertices.is_empty() {
         for r in &results {
@@ -212,16 +209,18 @@ fn ties_are_broken_by_the_smallest_2_norm() {
     // t1 + t2 + 2 t3 = 30: sum t = 30 - t3 is smallest for t3 = 10, then the
     // edge t1 + t2 = 10, t1, t2 in [1, 9]: the shortest point (5, 5, 10).
     let w = SMatrix::<f64, 1, 3>::new(1.0, 1.0, 2.0);
-    let t = min_1_norm(&w, &SVector::<f64, 1>::new(30.0), &limits3, None).unwrap().tensions;
+    let t = solve(Method::Min1Norm, &w, &SVector::<f64, 1>::new(30.0), &limits3, &PreviousCycle::NONE)
+        .unwrap()
+        .tensions;
     assert!((t - SVector::<f64, 3>::new(5.0, 5.0, 10.0)).amax() < 1e-9, "{t:?}");
     // t1 + t2 + t3 = 12: every point has the same sum; the shortest is (4, 4, 4),
     // which is also the safest (smallest slack 3).
     let w = SMatrix::<f64, 1, 3>::new(1.0, 1.0, 1.0);
     let f = SVector::<f64, 1>::new(12.0);
     for t in [
-        min_1_norm(&w, &f, &limits3, None).unwrap().tensions,
-        optimally_safe(&w, &f, &limits3).unwrap().tensions,
-        min_2_norm(&w, &f, &limits3, None).unwrap().tensions,
+        solve(Method::Min1Norm, &w, &f, &limits3, &PreviousCycle::NONE).unwrap().tensions,
+        solve(Method::OptimallySafe, &w, &f, &limits3, &PreviousCycle::NONE).unwrap().tensions,
+        solve(Method::Min2Norm, &w, &f, &limits3, &PreviousCycle::NONE).unwrap().tensions,
     ] {
         assert!((t - SVector::<f64, 3>::repeat(4.0)).amax() < 1e-9, "{t:?}");
     }
@@ -231,12 +230,12 @@ fn ties_are_broken_by_the_smallest_2_norm() {
     let w = SMatrix::<f64, 2, 4>::new(1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0);
     let f = SVector::<f64, 2>::new(10.0, 2.0);
     let limits4 = TensionLimits::uniform(1.0, 10.0).unwrap();
-    let sol = optimally_safe(&w, &f, &limits4).unwrap();
+    let sol = solve(Method::OptimallySafe, &w, &f, &limits4, &PreviousCycle::NONE).unwrap();
     assert!((sol.tensions - SVector::<f64, 4>::new(5.0, 5.0, 2.0, 2.0)).amax() < 1e-9, "{:?}", sol.tensions);
     assert!((sol.robustness - 1.0).abs() < 1e-9);
     // The same with r = 1 (active-set path): t1 + t2 = 10, t3 = 2.
     let w = SMatrix::<f64, 2, 3>::new(1.0, 1.0, 0.0, 0.0, 0.0, 1.0);
-    let sol = optimally_safe(&w, &f, &limits3).unwrap();
+    let sol = solve(Method::OptimallySafe, &w, &f, &limits3, &PreviousCycle::NONE).unwrap();
     assert!((sol.tensions - SVector::<f64, 3>::new(5.0, 5.0, 2.0)).amax() < 1e-9, "{:?}", sol.tensions);
     // Unequal limits: the distance is in newtons, not relative.
     let limits =
@@ -244,7 +243,9 @@ fn ties_are_broken_by_the_smallest_2_norm() {
             .unwrap();
     // t1 + t2 + t3 = 30: slacks t1, 10 - t1, t2, 20 - t2, t3, 100 - t3: the
     // best is t1 = 5 (slack 5), t2 >= 5, t3 >= 5; shortest: t2 = t3 = 12.5.
-    let sol = optimally_safe(&w3(), &SVector::<f64, 1>::new(30.0), &limits).unwrap();
+    let sol =
+        solve(Method::OptimallySafe, &w3(), &SVector::<f64, 1>::new(30.0), &limits, &PreviousCycle::NONE)
+            .unwrap();
     assert!((sol.tensions - SVector::<f64, 3>::new(5.0, 12.5, 12.5)).amax() < 1e-9, "{:?}", sol.tensions);
 }
 
@@ -374,9 +375,9 @@ fn active_set_methods<const N: usize, const M: usize>(
     let scale = limits.scale();
     let e = enumerate(&w, &f, &limits);
     let results = [
-        min_2_norm(&w, &f, &limits, None),
-        min_1_norm(&w, &f, &limits, None),
-        optimally_safe(&w, &f, &limits),
+        solve(Method::Min2Norm, &w, &f, &limits, &PreviousCycle::NONE),
+        solve(Method::Min1Norm, &w, &f, &limits, &PreviousCycle::NONE),
+        solve(Method::OptimallySafe, &w, &f, &limits, &PreviousCycle::NONE),
     ];
     let Some((norm, t_ref)) = e.min_norm else {
         for r in &results {
@@ -475,13 +476,15 @@ fn puncture_methods<const N: usize, const M: usize>(
         }
         t0 + (te - t0) * b
     };
-    let plain = puncture(&w, &f, &limits);
-    let improved = improved_puncture(&w, &f, &limits);
+    let plain = solve(Method::Puncture, &w, &f, &limits, &PreviousCycle::NONE);
+    let improved = solve(Method::ImprovedPuncture, &w, &f, &limits, &PreviousCycle::NONE);
     if let Ok(sol) = &improved {
         assert_valid("improved-puncture", &w, &f, &limits, &sol.tensions);
         // The end point is the improved closed form (checked against its own
         // reference in tests/closed_form.rs).
-        let te = improved_closed_form(&w, &f, &limits).map(|s| s.tensions).unwrap_or(t0);
+        let te = solve(Method::ImprovedClosedForm, &w, &f, &limits, &PreviousCycle::NONE)
+            .map(|s| s.tensions)
+            .unwrap_or(t0);
         let expected = bisect(&te);
         assert!((sol.tensions - expected).amax() <= 1e-7 * scale, "{:?}\nvs {expected:?}", sol.tensions);
     }
@@ -538,8 +541,8 @@ fn improved_puncture_covers_more_poses() {
     let improved_count = std::cell::Cell::new(0);
     runner
         .run(&random_problem::<3, 6>(0.3), |(w, f, limits)| {
-            let a = puncture(&w, &f, &limits).is_ok();
-            let b = improved_puncture(&w, &f, &limits).is_ok();
+            let a = solve(Method::Puncture, &w, &f, &limits, &PreviousCycle::NONE).is_ok();
+            let b = solve(Method::ImprovedPuncture, &w, &f, &limits, &PreviousCycle::NONE).is_ok();
             plain_count.set(plain_count.get() + usize::from(a && !b));
             improved_count.set(improved_count.get() + usize::from(b && !a));
             Ok(())
@@ -920,12 +923,12 @@ fn norms_in_f32_solve_every_pose_the_barycenter_solves() {
         let pose = SVector::<f32, 6>::from_fn(|i, _| p[i] as f32);
         let w = robot.wrench_matrix(&pose).unwrap();
         let f = robot.required_wrench(&pose, &SVector::zeros(), None).unwrap();
-        if tension_core::barycenter(&w, &f, &limits, None).is_err() {
+        if solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::NONE).is_err() {
             continue;
         }
         for (name, result) in [
-            ("min-2-norm", min_2_norm(&w, &f, &limits, None)),
-            ("min-1-norm", min_1_norm(&w, &f, &limits, None)),
+            ("min-2-norm", solve(Method::Min2Norm, &w, &f, &limits, &PreviousCycle::NONE)),
+            ("min-1-norm", solve(Method::Min1Norm, &w, &f, &limits, &PreviousCycle::NONE)),
         ] {
             let t = result.unwrap_or_else(|e| panic!("pose {k}: {name} failed with {e:?}")).tensions;
             for i in 0..8 {

@@ -24,11 +24,6 @@ use crate::{TickCounter, CABLES};
 /// Telemetry period at start-up, cycles.
 pub const DEFAULT_TELEMETRY_PERIOD: u16 = 10;
 
-/// The index of `method` in `Method::ALL` (the protocol's method number).
-pub fn method_index(method: Method) -> u8 {
-    Method::ALL.iter().position(|&m| m == method).map_or(u8::MAX, |i| i as u8)
-}
-
 /// The newest setpoint the link delivered.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Newest {
@@ -295,7 +290,7 @@ impl ControlLoop {
                     brakes: output.brakes,
                     step_cost: self.last_cost,
                     counters: self.counters,
-                    method: method_index(self.controller.method()),
+                    method: self.controller.method().wire_id(),
                 }
             });
         self.cycle = self.cycle.wrapping_add(1);

@@ -127,8 +127,8 @@ impl Link {
             HostMessage::Disable => Event::Disable,
             HostMessage::ClearFault => Event::ClearFault,
             HostMessage::TelemetryPeriod(p) => Event::TelemetryPeriod(p),
-            HostMessage::SelectMethod(id) => match tension_core::Method::ALL.get(usize::from(id)) {
-                Some(&method) => Event::SelectMethod(method),
+            HostMessage::SelectMethod(id) => match tension_core::Method::from_wire_id(id) {
+                Some(method) => Event::SelectMethod(method),
                 None => {
                     counters.rejected_range = counters.rejected_range.wrapping_add(1);
                     return None;

@@ -480,9 +480,8 @@ proptest! {
 
 #[test]
 fn a_method_is_selected_only_while_disabled() {
-    use cdpr_control::control_loop::method_index;
-    let min_2_norm = method_index(Method::Min2Norm);
-    assert_eq!(Method::ALL[usize::from(min_2_norm)], Method::Min2Norm);
+    let min_2_norm = Method::Min2Norm.wire_id();
+    assert_eq!(Method::from_wire_id(min_2_norm).unwrap(), Method::Min2Norm);
 
     // Enabled: refused, the barycenter stays.
     let (mut rig, barycenter) = Rig::enabled();
@@ -490,7 +489,7 @@ fn a_method_is_selected_only_while_disabled() {
     rig.send(HostMessage::TelemetryPeriod(1));
     rig.send(HostMessage::Setpoint(low(2)));
     let t = rig.step().telemetry.unwrap();
-    assert_eq!(t.method, method_index(Method::Barycenter));
+    assert_eq!(t.method, Method::Barycenter.wire_id());
     assert_eq!(rig.control.counters().rejected_state, 1);
 
     // Disabled: granted; an unknown number is out of range.

@@ -40,8 +40,8 @@ pub enum HostMessage {
     ClearFault,
     /// Send telemetry every `period` control cycles; 0 stops it (tag 4).
     TelemetryPeriod(u16),
-    /// Use this tension distribution method from now on (tag 5): the index
-    /// in `tension_core::Method::ALL` (0 barycenter, 1 barycenter-brute,
+    /// Use this tension distribution method from now on (tag 5): its wire
+    /// number `tension_core::Method::wire_id` (0 barycenter, 1 barycenter-brute,
     /// 2 analytic-centre, 3 closed-form, 4 improved-closed-form, 5 puncture,
     /// 6 improved-puncture, 7 min-2-norm, 8 min-1-norm, 9 optimally-safe).
     /// Accepted in Disabled only.

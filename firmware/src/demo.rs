@@ -487,9 +487,9 @@ fn controller(method: Method) -> Controller {
 /// The barycenter's phases over the loop's poses: factorisation of `W`,
 /// the polygon's half-planes, the warm-started walk and centroid.
 fn barycenter_phases(clock: &Tim2Counter) {
-    use tension_core::barycenter::TensionPolygon;
     use tension_core::linalg::WrenchFactorization;
     use tension_core::polygon::VertexList;
+    use tension_core::tension_polygon::TensionPolygon;
     let controller = controller(Method::Barycenter);
     let limits = *controller.robot().limits();
     let (mut fact_t, mut poly_t, mut walk_t) = (Running::default(), Running::default(), Running::default());

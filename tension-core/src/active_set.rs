@@ -39,7 +39,7 @@ use nalgebra::{SMatrix, SVector};
 use crate::{
     linalg::WrenchFactorization,
     scalar::{finite, greater},
-    Error, Real, TensionLimits,
+    tolerance, Error, Real, TensionLimits,
 };
 
 /// Step cap of [`project`] and [`minimise_linear`]: `8 M + 8` steps (additions
@@ -86,8 +86,7 @@ impl<T: Real, const M: usize> NullSpaceProblem<T, M> {
         for k in 0..M {
             scale = scale.max(lower[k].abs()).max(upper[k].abs());
         }
-        // The polygon's slack tolerance (polygon.rs): rounding of t_p and Z lambda.
-        let tol = T::lit(64.0) * T::eps() * scale;
+        let tol = tolerance::slack(scale);
         Ok(Self { particular, z, lower, upper, r, tol })
     }
 
@@ -398,7 +397,7 @@ pub fn minimise_linear<T: Real, const M: usize>(
     let small = small::<T>();
     // Stationarity is decided at rounding level (not at `small`, 5e-3 in
     // f32, which would stop on a slowly improving edge).
-    let flat = T::lit(256.0) * T::eps();
+    let flat = tolerance::stationary::<T>();
     let mut x = *x0;
     let mut active = [0usize; M];
     let mut len = start.len().min(M).min(c.dim());
@@ -456,11 +455,10 @@ pub fn minimise_linear<T: Real, const M: usize>(
     Err(Error::NoConvergence)
 }
 
-/// `16 sqrt(eps)`: relative threshold for "parallel" and "zero" (the
-/// polygon's, polygon.rs).
+/// [`tolerance::parallel`]: the relative threshold for "parallel" and "zero".
 #[inline]
 pub(crate) fn small<T: Real>() -> T {
-    T::lit(16.0) * T::eps().sqrt_native()
+    tolerance::parallel()
 }
 
 #[inline]

@@ -12,7 +12,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use crate::{
     scalar::{all_finite, finite, greater},
-    Error, Real, TensionLimits,
+    tolerance, Error, Real, TensionLimits,
 };
 
 /// A pose: `N` numbers in the conventions' order for the robot's kind.
@@ -346,7 +346,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
             state.attachments[i] = rb;
             state.directions[i] = l; // normalised below, once the size is known
         }
-        let floor = T::lit(1.0e3) * T::eps() * size.max(T::eps());
+        let floor = tolerance::degenerate_length(size);
         for i in 0..M {
             if !greater(state.lengths[i], floor) {
                 return Err(Error::DegenerateCable);

@@ -10,11 +10,11 @@
 //! * an orthonormal basis of the null space of `W`: the last `M - N` columns
 //!   of `Q` (the `N` in their Eq. 2, the kernel of Di Paola et al. 2024, Eq. 6).
 
-use nalgebra::{SMatrix, SVector, Vector2};
+use nalgebra::{SMatrix, SVector};
 
 use crate::{
     scalar::{all_finite, finite, greater},
-    Error, Real,
+    tolerance, Error, Real,
 };
 
 /// `W^T = Q [R; 0]`, computed once per pose and shared by every method.
@@ -162,7 +162,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         if !finite(&self.z.as_slice()[..r * M]) {
             return Err(Error::NonFinite);
         }
-        let threshold = T::lit(16.0) * T::lit(M as f64) * T::eps() * rmax;
+        let threshold = tolerance::rank(M, rmax);
         for i in 0..N {
             if self.rdiag[i].abs() <= threshold {
                 return Err(Error::Singular);
@@ -218,12 +218,6 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
     /// The degree of redundancy `r = M - N`.
     pub const fn redundancy(&self) -> usize {
         M - N
-    }
-
-    /// The first two null-space columns as rows `n_k` (Lamaury & Gouttefarde
-    /// 2013, Eq. 6), for `r = 2`.
-    pub fn null_rows_2(&self) -> [Vector2<T>; M] {
-        core::array::from_fn(|i| Vector2::new(self.null(i, 0), self.null(i, 1)))
     }
 }
 

@@ -22,7 +22,7 @@ use nalgebra::Vector2;
 
 use crate::{
     scalar::{all_finite, finite, max, min},
-    Error, Real,
+    tolerance, Error, Real,
 };
 
 /// Which limit of a cable a polygon edge lies on.
@@ -231,12 +231,12 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             return Err(Error::Singular);
         }
         // Slack tolerance in tension units: rounding of t_p and of N lambda.
-        let tol = T::lit(64.0) * T::eps() * scale;
-        let row_floor = T::lit(1.0e3) * T::eps() * row_max;
+        let tol = tolerance::slack(scale);
+        let row_floor = tolerance::negligible_row(row_max);
         // Lines closer than this to parallel (sine of their angle) are taken
         // as parallel: their crossing is lost in rounding, and the sliver
         // between them is too thin to move the centroid.
-        let parallel = T::lit(16.0) * T::eps().sqrt_native();
+        let parallel = tolerance::parallel::<T>();
         for k in 0..M {
             if self.lower[k] > self.upper[k] {
                 return Err(Error::InvalidLimits);

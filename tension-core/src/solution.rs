@@ -2,7 +2,7 @@
 
 use nalgebra::SVector;
 
-use crate::{barycenter::ActivePair, Real, TensionLimits};
+use crate::{polygon::ActivePair, scalar::finite, Error, Real, TensionLimits};
 
 /// Whether a warm start was offered and whether it held.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -70,4 +70,35 @@ pub fn robustness<T: Real, const M: usize>(t: &SVector<T, M>, limits: &TensionLi
         }
     }
     d
+}
+
+/// Checks and packs a result: finite, within the limits up to `tol`
+/// (else [`Error::NoConvergence`]: a numerical failure, not a proof).
+pub(crate) fn checked_solution<T: Real, const M: usize>(
+    t: &SVector<T, M>,
+    limits: &TensionLimits<T, M>,
+    tol: T,
+    steps: usize,
+    vertices: u8,
+    active_pair: Option<ActivePair>,
+    warm_start: WarmStart,
+) -> Result<Solution<T, M>, Error> {
+    if !finite(t.as_slice()) {
+        return Err(Error::NonFinite);
+    }
+    let robustness = robustness(t, limits);
+    if !robustness.is_finite() || robustness < -T::lit(4.0) * tol {
+        return Err(Error::NoConvergence);
+    }
+    Ok(Solution {
+        tensions: *t,
+        robustness,
+        diagnostics: Diagnostics {
+            vertices,
+            iterations: steps.min(u8::MAX as usize) as u8,
+            warm_start,
+            active_pair,
+            ..Diagnostics::empty()
+        },
+    })
 }

@@ -453,7 +453,7 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
         t.state == State::Fault && t.torques.iter().all(|&x| x == 0.0)
     });
     let method = Method::Min2Norm;
-    let id = cdpr_control::control_loop::method_index(method);
+    let id = method.wire_id();
     let from = s.telemetry_count();
     for k in 0..300 {
         s.send_setpoint(k)?;

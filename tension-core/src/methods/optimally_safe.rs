@@ -1,4 +1,4 @@
-//! `optimally-safe`: the feasible tensions farthest from every limit,
+//! `optimally-safe` (`docs/conventions.md`): the feasible tensions farthest from every limit,
 //! `argmax_t min_i min(t_i - t_min_i, t_max_i - t_i)` subject to `W t = f`
 //! (Borgstrom et al. 2009; Di Paola et al. 2024, Eqs. 9-10: the robustness
 //! index of [`crate::robustness`]). With equal limits for every cable this is
@@ -39,32 +39,33 @@
 //! one end of the optimal segment to the other where the rows of the two
 //! critical cables pass through parallel (see `tests/more_methods.rs`).
 
-use nalgebra::{SMatrix, SVector, Vector2};
+use nalgebra::{SVector, Vector2};
 
+use super::{PreviousCycle, Problem};
 use crate::{
     active_set::{minimise_linear, project, small, Constraints, NullSpaceProblem},
-    linalg::WrenchFactorization,
-    norms::finish,
     scalar::greater,
-    solution::{Solution, WarmStart},
-    Error, Real, TensionLimits,
+    solution::{checked_solution, Solution, WarmStart},
+    Error, Real,
 };
 
-/// `optimally-safe` (see the module header).
-pub fn optimally_safe<T: Real, const N: usize, const M: usize>(
-    w: &SMatrix<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
-) -> Result<Solution<T, M>, Error> {
-    optimally_safe_factored(&WrenchFactorization::new(w)?, f, limits)
+/// Reads the null-space basis.
+pub const NULL_SPACE: bool = true;
+
+/// Starts cold every call.
+pub const WARM_START: bool = false;
+
+/// Any redundancy.
+pub const fn supports(n: usize, m: usize) -> bool {
+    super::any_redundancy(n, m)
 }
 
-/// [`optimally_safe`] on an already factored wrench matrix.
-pub fn optimally_safe_factored<T: Real, const N: usize, const M: usize>(
-    fact: &WrenchFactorization<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
+/// The safest tensions (see the module header); no warm start.
+pub fn solve<T: Real, const N: usize, const M: usize>(
+    problem: &Problem<'_, T, N, M>,
+    _previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
+    let Problem { f, limits, factorization: fact, .. } = *problem;
     let prob = NullSpaceProblem::new(fact, f, limits)?;
     let tol = prob.tolerance();
     let r = prob.redundancy();
@@ -87,7 +88,7 @@ pub fn optimally_safe_factored<T: Real, const N: usize, const M: usize>(
         Err(Error::Infeasible) => lambda_best,
         Err(e) => return Err(e),
     };
-    finish(&prob.tensions(&lambda), limits, tol, steps, 0, None, WarmStart::NotGiven)
+    checked_solution(&prob.tensions(&lambda), limits, tol, steps, 0, None, WarmStart::NotGiven)
 }
 
 /// Slack of limit `h` as `c - a . lambda` (`r = 2`).

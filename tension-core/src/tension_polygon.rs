@@ -1,18 +1,19 @@
-//! The barycenter of the feasible tension polygon (`M = N + 2` cables):
-//! Lamaury & Gouttefarde 2013 (walk along the edges) and, as the reference it
-//! is tested against, Mikelsons et al. 2008 (every pairwise intersection).
+//! The feasible tension polygon of a problem with two degrees of redundancy
+//! (`M = N + 2`) in null-space coordinates, `t = t_p + N lambda` (Lamaury &
+//! Gouttefarde 2013, Eqs. 2-6), and the way back from a point of it to
+//! tensions. The barycenter methods, the norms and the firmware's profiling
+//! build it; [`crate::polygon`] walks it.
 //!
-//! Both map the polygon's centroid `lambda_c` back to tensions,
-//! `t_c = t_p + N lambda_c` (Lamaury & Gouttefarde 2013, after Eq. 23). The
-//! centroid is affine-equivariant, so `t_c` does not depend on the null-space
-//! basis or on the particular solution chosen.
+//! The barycenter maps the polygon's centroid `lambda_c` back to tensions,
+//! `t_c = t_p + N lambda_c` (after Eq. 23). The centroid is
+//! affine-equivariant, so `t_c` does not depend on the null-space basis or on
+//! the particular solution chosen.
 
-use nalgebra::{SMatrix, SVector, Vector2};
+use nalgebra::{SVector, Vector2};
 
-pub use crate::polygon::{ActivePair, Bound};
 use crate::{
     linalg::WrenchFactorization,
-    polygon::{FeasiblePolygon, PolygonSummary, VertexList},
+    polygon::{ActivePair, FeasiblePolygon, PolygonSummary},
     scalar::finite,
     solution::{robustness, Diagnostics, Solution, WarmStart},
     Error, Real, TensionLimits,
@@ -79,7 +80,8 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
         SVector::from_fn(|k, _| self.particular[k] + self.rows[k].dot(lambda))
     }
 
-    fn solution(
+    /// The solution at the centroid of `found` (the barycenter methods).
+    pub(crate) fn centroid_solution(
         &self,
         found: &PolygonSummary<T>,
         limits: &TensionLimits<T, M>,
@@ -107,64 +109,4 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
             },
         })
     }
-}
-
-/// `barycenter` (conventions): the centroid of the feasible polygon by walking its
-/// edges (Lamaury & Gouttefarde 2013, Sect. 2.2-2.3), warm-started from the
-/// previous cycle's active pair when it is given and still a vertex.
-///
-/// Cost: one Householder factorisation (`O(N^2 M)`), then the walk: with a
-/// held warm start `O(M^2)`; cold, `O(M^2)` to clip every line against the
-/// other cables, and the exhaustive `4 C(M,2)` line pairs (`O(M^3)`) only for
-/// lines the clipping cannot rule out.
-pub fn barycenter<T: Real, const N: usize, const M: usize>(
-    w: &SMatrix<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
-    warm: Option<ActivePair>,
-) -> Result<Solution<T, M>, Error> {
-    if M != N + 2 {
-        return Err(Error::UnsupportedShape);
-    }
-    barycenter_factored(&WrenchFactorization::new(w)?, f, limits, warm)
-}
-
-/// [`barycenter`] on an already factored wrench matrix.
-pub fn barycenter_factored<T: Real, const N: usize, const M: usize>(
-    fact: &WrenchFactorization<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
-    warm: Option<ActivePair>,
-) -> Result<Solution<T, M>, Error> {
-    let mut poly = TensionPolygon::zeroed();
-    poly.set(fact, f, limits)?;
-    let mut vertices = VertexList::new();
-    let found = poly.polygon.walk_into(warm, &mut vertices)?;
-    poly.solution(&found, limits, warm)
-}
-
-/// `barycenter-brute` (conventions): the same centroid from every pairwise line
-/// intersection (Mikelsons et al. 2008), `O(M^3)`.
-pub fn barycenter_brute<T: Real, const N: usize, const M: usize>(
-    w: &SMatrix<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
-) -> Result<Solution<T, M>, Error> {
-    if M != N + 2 {
-        return Err(Error::UnsupportedShape);
-    }
-    barycenter_brute_factored(&WrenchFactorization::new(w)?, f, limits)
-}
-
-/// [`barycenter_brute`] on an already factored wrench matrix.
-pub fn barycenter_brute_factored<T: Real, const N: usize, const M: usize>(
-    fact: &WrenchFactorization<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
-) -> Result<Solution<T, M>, Error> {
-    let mut poly = TensionPolygon::zeroed();
-    poly.set(fact, f, limits)?;
-    let mut vertices = VertexList::new();
-    let found = poly.polygon.brute_force_into(&mut vertices)?;
-    poly.solution(&found, limits, None)
 }

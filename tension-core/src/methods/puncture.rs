@@ -1,4 +1,5 @@
-//! The puncture method and the improved puncture method (Müller, Reichert &
+//! `puncture` (`docs/conventions.md`): the puncture method, and the steps it
+//! shares with [`super::improved_puncture`]. Both are from (Müller, Reichert &
 //! Bruckmann 2014, "Analysis of a real-time capable cable force computation
 //! method", CableCon 2014, in Cable-Driven Parallel Robots, Springer 2015,
 //! pp. 227-238), any degree of redundancy.
@@ -11,9 +12,9 @@
 //!    is the answer.
 //! 2. Otherwise a feasible end point `t_e` with `W t_e = f`:
 //!    * `puncture`: Pott's closed form, `t_e = t_m + W^+ (f - W t_m)` with
-//!      `t_m = (t_min + t_max) / 2` ([`crate::closed_form`]);
+//!      `t_m = (t_min + t_max) / 2` ([`super::closed_form`]);
 //!    * `improved-puncture`: Pott's improved closed form (Pott 2013,
-//!      Sect. 2, [`crate::improved_closed_form`]), which fixes violating
+//!      Sect. 2, [`super::improved_closed_form`]), which fixes violating
 //!      cables at their limits and so succeeds on more poses: the
 //!      improvement for the poses where the plain method's end point leaves
 //!      the limits.
@@ -46,63 +47,43 @@
 //! workspace. `improved-puncture` inherits the improved closed form's jumps
 //! when the set of fixed cables changes; see `tests/more_methods.rs`.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
 
+use super::{PreviousCycle, Problem};
 use crate::{
-    closed_form::{closed_form_factored, improved_closed_form},
     linalg::WrenchFactorization,
     scalar::finite,
     solution::{robustness, Diagnostics, Solution},
     Error, Real, TensionLimits,
 };
 
-/// `puncture` (see the module header).
-pub fn puncture<T: Real, const N: usize, const M: usize>(
-    w: &SMatrix<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
-) -> Result<Solution<T, M>, Error> {
-    puncture_factored(&WrenchFactorization::new(w)?, w, f, limits)
+/// Reads only the particular solution.
+pub const NULL_SPACE: bool = false;
+
+/// Starts cold every call.
+pub const WARM_START: bool = false;
+
+/// Any redundancy.
+pub const fn supports(n: usize, m: usize) -> bool {
+    super::any_redundancy(n, m)
 }
 
-/// [`puncture`] on an already factored wrench matrix.
-pub fn puncture_factored<T: Real, const N: usize, const M: usize>(
-    fact: &WrenchFactorization<T, N, M>,
-    w: &SMatrix<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
+/// `W^+ f` if within the limits, else where the line from it to the closed
+/// form enters the limits (see the module header); no warm start.
+pub fn solve<T: Real, const N: usize, const M: usize>(
+    problem: &Problem<'_, T, N, M>,
+    previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let t0 = base_point(fact, f)?;
-    if inside(&t0, limits) {
-        return Ok(pack(t0, limits, Diagnostics { iterations: 1, ..Diagnostics::empty() }));
+    let t0 = base_point(problem.factorization, problem.f)?;
+    if inside(&t0, problem.limits) {
+        return Ok(pack(t0, problem.limits, Diagnostics { iterations: 1, ..Diagnostics::empty() }));
     }
-    let end = closed_form_factored(fact, w, f, limits)?;
-    let t = along_line(&t0, &end.tensions, limits)?;
-    Ok(pack(t, limits, Diagnostics { iterations: 2, ..Diagnostics::empty() }))
+    let end = super::closed_form::solve(problem, previous)?;
+    let t = along_line(&t0, &end.tensions, problem.limits)?;
+    Ok(pack(t, problem.limits, Diagnostics { iterations: 2, ..Diagnostics::empty() }))
 }
 
-/// `improved-puncture` (see the module header).
-pub fn improved_puncture<T: Real, const N: usize, const M: usize>(
-    w: &SMatrix<T, N, M>,
-    f: &SVector<T, N>,
-    limits: &TensionLimits<T, M>,
-) -> Result<Solution<T, M>, Error> {
-    let fact = WrenchFactorization::new(w)?;
-    let t0 = base_point(&fact, f)?;
-    if inside(&t0, limits) {
-        return Ok(pack(t0, limits, Diagnostics { iterations: 1, ..Diagnostics::empty() }));
-    }
-    let end = improved_closed_form(w, f, limits)?;
-    let t = along_line(&t0, &end.tensions, limits)?;
-    let diagnostics = Diagnostics {
-        iterations: end.diagnostics.iterations.saturating_add(1),
-        fixed_cables: end.diagnostics.fixed_cables,
-        ..Diagnostics::empty()
-    };
-    Ok(pack(t, limits, diagnostics))
-}
-
-fn base_point<T: Real, const N: usize, const M: usize>(
+pub(crate) fn base_point<T: Real, const N: usize, const M: usize>(
     fact: &WrenchFactorization<T, N, M>,
     f: &SVector<T, N>,
 ) -> Result<SVector<T, M>, Error> {
@@ -117,13 +98,13 @@ fn base_point<T: Real, const N: usize, const M: usize>(
     }
 }
 
-fn inside<T: Real, const M: usize>(t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> bool {
+pub(crate) fn inside<T: Real, const M: usize>(t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> bool {
     (0..M).all(|i| t[i] >= limits.min()[i] && t[i] <= limits.max()[i])
 }
 
 /// The puncture point `t_0 + s* (t_e - t_0)` (step 3 of the module header);
 /// `t_e` must be within the limits.
-fn along_line<T: Real, const M: usize>(
+pub(crate) fn along_line<T: Real, const M: usize>(
     t0: &SVector<T, M>,
     te: &SVector<T, M>,
     limits: &TensionLimits<T, M>,
@@ -150,7 +131,7 @@ fn along_line<T: Real, const M: usize>(
     }
 }
 
-fn pack<T: Real, const M: usize>(
+pub(crate) fn pack<T: Real, const M: usize>(
     t: SVector<T, M>,
     limits: &TensionLimits<T, M>,
     diagnostics: Diagnostics,

@@ -1,0 +1,55 @@
+//! `min-1-norm` (`docs/conventions.md`): the feasible tensions of smallest
+//! sum (tensions are non-negative, so the 1-norm), ties broken by the
+//! smallest 2-norm; any degree of redundancy. How, and the cost: see
+//! [`super::min_2_norm`], which it shares the polygon and the active sets
+//! with.
+
+use nalgebra::SVector;
+
+use super::{PreviousCycle, Problem};
+use crate::{
+    active_set::{minimise_linear, project, Constraints, NullSpaceProblem},
+    polygon_optimum::{on_polygon, Norm},
+    solution::{checked_solution, Solution, WarmStart},
+    Error, Real,
+};
+
+/// Reads the null-space basis.
+pub const NULL_SPACE: bool = true;
+
+/// Uses the previous cycle's solution (`PreviousCycle`).
+pub const WARM_START: bool = true;
+
+/// Any redundancy.
+pub const fn supports(n: usize, m: usize) -> bool {
+    super::any_redundancy(n, m)
+}
+
+/// The smallest `sum t_i`, then the smallest `|t|_2` among the minimisers;
+/// `previous.active_pair` warm-starts the walk for `r = 2`.
+pub fn solve<T: Real, const N: usize, const M: usize>(
+    problem: &Problem<'_, T, N, M>,
+    previous: &PreviousCycle<T, M>,
+) -> Result<Solution<T, M>, Error> {
+    let Problem { f, limits, factorization, .. } = *problem;
+    if M == N + 2 {
+        let on_the_polygon = on_polygon(factorization, f, limits, previous.active_pair, Norm::One);
+        // As for min-2-norm: the active sets decide when rounding put the
+        // polygon's optimum beyond a limit.
+        if !matches!(on_the_polygon, Err(Error::NoConvergence)) {
+            return on_the_polygon;
+        }
+    }
+    let prob = NullSpaceProblem::new(factorization, f, limits)?;
+    let tol = prob.tolerance();
+    let base = Constraints::limits(&prob);
+    let start = project(&base, &SVector::zeros(), tol)?;
+    let g = prob.sum_gradient();
+    let (x, lp_steps) = minimise_linear(&base, &g, &start.x, &start.active[..start.active_len])?;
+    // Among the minimisers (within the rounding of the sum), the smallest 2-norm.
+    let best = g.dot(&x) + T::lit(M as f64) * tol;
+    let cut = base.with_extra(&g, best);
+    let tie = project(&cut, &SVector::zeros(), tol)?;
+    let steps = start.steps + lp_steps + tie.steps;
+    checked_solution(&prob.tensions(&tie.x), limits, tol, steps, 0, None, WarmStart::NotGiven)
+}

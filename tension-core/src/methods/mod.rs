@@ -1,0 +1,254 @@
+//! The tension distribution methods behind one seam.
+//!
+//! Every method is one module of this folder with the same signature,
+//!
+//! ```text
+//! pub fn solve<T: Real, const N: usize, const M: usize>(
+//!     problem: &Problem<'_, T, N, M>,
+//!     previous: &PreviousCycle<T, M>,
+//! ) -> Result<Solution<T, M>, Error>
+//! ```
+//!
+//! plus `supports(n, m)` (the shapes it serves), `NULL_SPACE` (whether it
+//! reads the null-space basis of the factorisation, or only the particular
+//! solution) and `WARM_START` (whether it uses the previous cycle's result). The `methods!` table at the bottom of this file registers
+//! each one once: its [`Method`] variant, its name in `docs/conventions.md`,
+//! its wire number in the serial protocol and its module. Everything that
+//! lists methods (the CLI's help, the protocol, the benchmarks, the tests)
+//! iterates [`Method::ALL`], so adding a method is one new file here and one
+//! line in that table.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::{linalg::WrenchFactorization, polygon::ActivePair, Error, Real, Solution, TensionLimits};
+
+/// One tension distribution problem: find `t` with `W t = f` and
+/// `t_min <= t <= t_max`, with `W` already factored.
+#[derive(Clone, Copy)]
+pub struct Problem<'a, T: Real, const N: usize, const M: usize> {
+    /// The wrench matrix `W` (`N x M`).
+    pub w: &'a SMatrix<T, N, M>,
+    /// The wrench the cables must balance, `f = -w_e`.
+    pub f: &'a SVector<T, N>,
+    /// The tension limits.
+    pub limits: &'a TensionLimits<T, M>,
+    /// `W^T = Q [R; 0]`, with the null-space columns when the method's
+    /// `NULL_SPACE` asks for them.
+    pub factorization: &'a WrenchFactorization<T, N, M>,
+}
+
+/// What a method may carry from the previous cycle's solution to warm-start
+/// the next one (the barycenter's and the norms' active pair, the analytic
+/// centre's tensions). A method ignores what it has no use for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PreviousCycle<T: Real, const M: usize> {
+    /// The previous cycle's most robust vertex of the feasible polygon.
+    pub active_pair: Option<ActivePair>,
+    /// The previous cycle's tensions.
+    pub tensions: Option<SVector<T, M>>,
+}
+
+impl<T: Real, const M: usize> PreviousCycle<T, M> {
+    /// No history: every method starts cold.
+    pub const NONE: Self = Self { active_pair: None, tensions: None };
+
+    /// Only an active pair (or none).
+    pub const fn pair(active_pair: Option<ActivePair>) -> Self {
+        Self { active_pair, tensions: None }
+    }
+
+    /// Only the previous tensions (or none).
+    pub const fn tensions(tensions: Option<SVector<T, M>>) -> Self {
+        Self { active_pair: None, tensions }
+    }
+
+    /// Remembers a successful solution (an absent active pair keeps the
+    /// previous one).
+    pub fn remember(&mut self, solution: &Solution<T, M>) {
+        if let Some(pair) = solution.diagnostics.active_pair {
+            self.active_pair = Some(pair);
+        }
+        self.tensions = Some(solution.tensions);
+    }
+}
+
+impl<T: Real, const M: usize> Default for PreviousCycle<T, M> {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
+
+/// Shapes served by the methods that need the polygon (`r = 2`).
+pub(crate) const fn redundancy_two(n: usize, m: usize) -> bool {
+    n > 0 && m == n + 2
+}
+
+/// Shapes served by the methods for any redundancy (`M >= N`).
+pub(crate) const fn any_redundancy(n: usize, m: usize) -> bool {
+    n > 0 && m >= n
+}
+
+/// Solves `problem`'s `W t = f` within the limits with `method`, from `w`,
+/// `f` and `limits`: factors `W` (with the null space only for methods that
+/// read it) and calls the method's module. [`Error::UnsupportedShape`] for a
+/// shape the method does not serve.
+pub fn solve<T: Real, const N: usize, const M: usize>(
+    method: Method,
+    w: &SMatrix<T, N, M>,
+    f: &SVector<T, N>,
+    limits: &TensionLimits<T, M>,
+    previous: &PreviousCycle<T, M>,
+) -> Result<Solution<T, M>, Error> {
+    if !method.supports(N, M) {
+        return Err(Error::UnsupportedShape);
+    }
+    // Filled in place: no factorisation moved through a `Result`.
+    let mut factorization = WrenchFactorization::zeroed();
+    let null_columns = if method.reads_null_space() { M - N } else { 0 };
+    factorization.factor(w, &[true; M], null_columns)?;
+    method.dispatch(&Problem { w, f, limits, factorization: &factorization }, previous)
+}
+
+/// The registry: one line per method, `Variant = wire number, "name", module;`.
+/// Wire numbers are the serial protocol's method ids: never reuse or
+/// renumber one (`tests::wire_numbers_are_pinned` holds them).
+macro_rules! methods {
+    ($( $(#[$doc:meta])* $variant:ident = $wire:literal, $name:literal, $module:ident; )*) => {
+        $( pub mod $module; )*
+
+        /// The tension distribution methods, named as in `docs/conventions.md`.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum Method {
+            $( $(#[$doc])* $variant, )*
+        }
+
+        impl Method {
+            /// Every method, in the order of the registry.
+            pub const ALL: [Method; [$(Method::$variant),*].len()] = [$(Method::$variant),*];
+
+            /// The name (`docs/conventions.md`).
+            pub const fn name(self) -> &'static str {
+                match self { $( Method::$variant => $name, )* }
+            }
+
+            /// The method's number in the serial protocol (stable).
+            pub const fn wire_id(self) -> u8 {
+                match self { $( Method::$variant => $wire, )* }
+            }
+
+            /// The method with wire number `id`, if any.
+            pub const fn from_wire_id(id: u8) -> Option<Self> {
+                match id { $( $wire => Some(Method::$variant), )* _ => None }
+            }
+
+            /// Whether the method serves `n` degrees of freedom and `m` cables.
+            pub const fn supports(self, n: usize, m: usize) -> bool {
+                match self { $( Method::$variant => $module::supports(n, m), )* }
+            }
+
+            /// Whether the method starts from the previous cycle's solution.
+            pub const fn warm_starts(self) -> bool {
+                match self { $( Method::$variant => $module::WARM_START, )* }
+            }
+
+            /// Whether the method reads the factorisation's null-space basis.
+            pub const fn reads_null_space(self) -> bool {
+                match self { $( Method::$variant => $module::NULL_SPACE, )* }
+            }
+
+            /// The method on an already factored problem (the factorisation
+            /// must hold the null space when [`Self::reads_null_space`]).
+            pub fn solve_factored<T: Real, const N: usize, const M: usize>(
+                self,
+                problem: &Problem<'_, T, N, M>,
+                previous: &PreviousCycle<T, M>,
+            ) -> Result<Solution<T, M>, Error> {
+                if !self.supports(N, M) {
+                    return Err(Error::UnsupportedShape);
+                }
+                self.dispatch(problem, previous)
+            }
+
+            /// The method's module, for a shape already checked.
+            fn dispatch<T: Real, const N: usize, const M: usize>(
+                self,
+                problem: &Problem<'_, T, N, M>,
+                previous: &PreviousCycle<T, M>,
+            ) -> Result<Solution<T, M>, Error> {
+                match self { $( Method::$variant => $module::solve(problem, previous), )* }
+            }
+        }
+    };
+}
+
+methods! {
+    /// `barycenter`: Lamaury & Gouttefarde 2013 (`M = N + 2`).
+    Barycenter = 0, "barycenter", barycenter;
+    /// `barycenter-brute`: Mikelsons et al. 2008 (`M = N + 2`).
+    BarycenterBrute = 1, "barycenter-brute", barycenter_brute;
+    /// `analytic-centre`: Di Paola et al. 2024 (any `M >= N`).
+    AnalyticCentre = 2, "analytic-centre", analytic_centre;
+    /// `closed-form`: Pott et al. 2009 (any `M >= N`).
+    ClosedForm = 3, "closed-form", closed_form;
+    /// `improved-closed-form`: Pott 2013 (any `M >= N`).
+    ImprovedClosedForm = 4, "improved-closed-form", improved_closed_form;
+    /// `puncture`: Müller, Reichert & Bruckmann 2014 (any `M >= N`).
+    Puncture = 5, "puncture", puncture;
+    /// `improved-puncture`: Müller, Reichert & Bruckmann 2014 (any `M >= N`).
+    ImprovedPuncture = 6, "improved-puncture", improved_puncture;
+    /// `min-2-norm`: smallest 2-norm (any `M >= N`).
+    Min2Norm = 7, "min-2-norm", min_2_norm;
+    /// `min-1-norm`: smallest 1-norm (any `M >= N`).
+    Min1Norm = 8, "min-1-norm", min_1_norm;
+    /// `optimally-safe`: Borgstrom et al. 2009 (any `M >= N`).
+    OptimallySafe = 9, "optimally-safe", optimally_safe;
+}
+
+impl Method {
+    /// Parses the name (`docs/conventions.md`).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wire_numbers_are_pinned() {
+        // The serial protocol's method ids: a change here breaks every host
+        // that selects a method on a board.
+        let pinned = [
+            ("barycenter", 0),
+            ("barycenter-brute", 1),
+            ("analytic-centre", 2),
+            ("closed-form", 3),
+            ("improved-closed-form", 4),
+            ("puncture", 5),
+            ("improved-puncture", 6),
+            ("min-2-norm", 7),
+            ("min-1-norm", 8),
+            ("optimally-safe", 9),
+        ];
+        assert_eq!(Method::ALL.len(), pinned.len());
+        for (name, id) in pinned {
+            let m = Method::from_name(name).unwrap();
+            assert_eq!(m.wire_id(), id, "{name}");
+            assert_eq!(Method::from_wire_id(id), Some(m));
+        }
+        assert_eq!(Method::from_wire_id(10), None);
+        assert_eq!(Method::from_wire_id(255), None);
+    }
+
+    #[test]
+    fn names_round_trip_and_shapes() {
+        for m in Method::ALL {
+            assert_eq!(Method::from_name(m.name()), Some(m));
+        }
+        assert_eq!(Method::from_name("barycentre"), None);
+        assert!(Method::Barycenter.supports(6, 8) && !Method::Barycenter.supports(6, 7));
+        assert!(Method::ImprovedClosedForm.supports(6, 12) && !Method::ClosedForm.supports(6, 5));
+        assert!(!Method::ClosedForm.supports(0, 3));
+    }
+}
