@@ -1,0 +1,56 @@
+//! Every pairwise intersection of the limit lines (Mikelsons et al. 2008):
+//! the reference the walk is tested against.
+use nalgebra::Vector2;
+
+use super::*;
+
+impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
+    /// Every pairwise intersection that is feasible, merged with any other
+    /// within their error bounds and sorted by angle about their mean (Mikelsons et al.
+    /// 2008): `C(2M, 2)` solves of `O(M)` checks, `O(M^3)`.
+    pub fn brute_force(&self) -> Result<PolygonCentroid<T, M>, Error> {
+        let mut vertices = VertexList::new();
+        let summary = self.brute_force_into(&mut vertices)?;
+        Ok(PolygonCentroid::from_summary(summary, vertices))
+    }
+
+    /// [`Self::brute_force`] with the vertices written to the caller's list
+    /// (which is cleared first).
+    pub fn brute_force_into(&self, vertices: &mut VertexList<T, M>) -> Result<PolygonSummary<T>, Error> {
+        vertices.clear();
+        for h1 in 0..2 * M {
+            for h2 in (h1 + 1)..2 * M {
+                if let Some(v) = self.vertex_of(h1, h2) {
+                    let merge = |u: &Vertex<T>| T::lit(4.0) * self.tol + u.error + v.error;
+                    if !vertices.iter().any(|u| (u.point - v.point).norm_squared().sqrt_native() <= merge(&u))
+                    {
+                        vertices.push(v)?;
+                    }
+                }
+            }
+        }
+        if vertices.is_empty() {
+            return Err(Error::Infeasible);
+        }
+        // Sort counter-clockwise about the mean (insertion sort, <= 4M items).
+        let mut mean = Vector2::zeros();
+        for v in vertices.iter() {
+            mean += v.point;
+        }
+        mean /= T::lit(vertices.len() as f64);
+        let angle = |v: &Vertex<T>| {
+            let p = v.point - mean;
+            p.y.atan2(p.x)
+        };
+        for i in 1..vertices.len() {
+            let mut j = i;
+            while j > 0 && angle(&vertices.get(j - 1)) > angle(&vertices.get(j)) {
+                let a = vertices.get(j - 1);
+                vertices.set(j - 1, vertices.get(j));
+                vertices.set(j, a);
+                j -= 1;
+            }
+        }
+        self.finish(vertices, None, false)
+    }
+}

@@ -1,0 +1,119 @@
+//! The cold search for a first vertex of the feasible polygon (Lamaury &
+//! Gouttefarde 2013, Eq. 8).
+use nalgebra::Vector2;
+
+use super::*;
+
+impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
+    /// Cold search for a first vertex (their Eq. 8: a pair of lines whose
+    /// crossing satisfies every half-plane), `O(M^2)` when the answer is
+    /// clear.
+    ///
+    /// Each cable's two parallel lines are clipped against the other cables'
+    /// limits (`lower_j <= n_j . (p_0 + s d) <= upper_j`, an interval of `s`
+    /// per cable, `O(M)` per line). A line whose interval is non-empty
+    /// offers the pair at its lower end, then at its upper end, as
+    /// candidates, checked like any pair ([`Self::vertex_of`]). A line whose
+    /// interval is empty by more than four times the largest acceptance
+    /// tolerance of any of its pairs (the slack tolerance widened by the
+    /// crossing's error bound) holds no vertex at all and is left out. Only
+    /// when no candidate held do the remaining lines' pairs go through the
+    /// exhaustive search, in a fixed order (at most `4 C(M, 2)` pairs of
+    /// `O(M)` checks), so the search finds a vertex exactly when the
+    /// exhaustive one would.
+    pub fn first_vertex(&self) -> Option<Vertex<T>> {
+        let none = 2 * M;
+        // Lines not proven empty (M <= 32, so 2 M bits fit).
+        let mut open: u64 = 0;
+        for k1 in 0..M {
+            if !self.used[k1] {
+                continue;
+            }
+            let n1 = self.norms[k1];
+            let u = self.rows[k1] / n1;
+            let d = Vector2::new(-u.y, u.x);
+            // Foot points of the two lines on u: p = u b / |n_k1|, b = lower or upper.
+            let (b_lo, b_hi) = (self.lower[k1] / n1, self.upper[k1] / n1);
+            // Per line (side 0: lower, 1: upper): interval [lo, hi] of s,
+            // the lines attaining its ends and their rates |n_j . d|.
+            let big = T::max_value()?;
+            let mut lo = [-big; 2];
+            let mut hi = [big; 2];
+            let mut g_lo = [none; 2];
+            let mut g_hi = [none; 2];
+            let mut r_lo = [T::zero(); 2];
+            let mut r_hi = [T::zero(); 2];
+            // Largest error bound of a crossing on these lines (same for both).
+            let mut err = T::zero();
+            for j in 0..M {
+                if !self.used[j] || j == k1 {
+                    continue;
+                }
+                let nd = self.rows[j].dot(&d);
+                let nu = self.rows[j].dot(&u);
+                let and = nd.abs();
+                // The crossing's error bound tol (|n_1| + |n_j|) / |det|, with
+                // |det| = |n_1| |n_j . d|, not below where `intersect` stops.
+                let den = max(and, T::lit(0.5) * self.ptol[j]);
+                let e = self.tol * (n1 + self.norms[j]) / (n1 * den);
+                err = max(err, e);
+                if and <= self.ptol[j] {
+                    continue; // (nearly) parallel: left out, which only widens the interval
+                }
+                for side in 0..2 {
+                    let np = nu * if side == 0 { b_lo } else { b_hi };
+                    let sa = (self.lower[j] - np) / nd;
+                    let sb = (self.upper[j] - np) / nd;
+                    let (s_min, h_min, s_max, h_max) =
+                        if nd > T::zero() { (sa, 2 * j, sb, 2 * j + 1) } else { (sb, 2 * j + 1, sa, 2 * j) };
+                    if s_min > lo[side] {
+                        lo[side] = s_min;
+                        g_lo[side] = h_min;
+                        r_lo[side] = and;
+                    }
+                    if s_max < hi[side] {
+                        hi[side] = s_max;
+                        g_hi[side] = h_max;
+                        r_hi[side] = and;
+                    }
+                }
+            }
+            let accept = T::lit(4.0) * (self.tol + self.row_max() * err);
+            for side in 0..2 {
+                let h1 = 2 * k1 + side;
+                let gap = lo[side] - hi[side];
+                if g_lo[side] != none && g_hi[side] != none && gap > T::zero() {
+                    // Every point of the line violates one of the two ends'
+                    // half-planes by at least this much.
+                    let (ra, rb) = (r_lo[side], r_hi[side]);
+                    let violation = gap * ra * rb / (ra + rb);
+                    if violation > accept {
+                        continue;
+                    }
+                }
+                open |= 1 << h1;
+                for g in [g_lo[side], g_hi[side]] {
+                    if g != none {
+                        if let Some(v) = self.vertex_of(h1.min(g), h1.max(g)) {
+                            return Some(v);
+                        }
+                    }
+                }
+            }
+        }
+        // No candidate held: every pair of the lines left.
+        for h1 in 0..2 * M {
+            if open & (1 << h1) == 0 {
+                continue;
+            }
+            for h2 in (h1 + 1)..2 * M {
+                if open & (1 << h2) != 0 {
+                    if let Some(v) = self.vertex_of(h1, h2) {
+                        return Some(v);
+                    }
+                }
+            }
+        }
+        None
+    }
+}

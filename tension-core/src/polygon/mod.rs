@@ -1,0 +1,375 @@
+//! The feasible tension polygon of a robot with two degrees of redundancy,
+//! in the null-space coordinates `lambda` (Lamaury & Gouttefarde 2013,
+//! Sect. 2.1): `t = t_p + N lambda` is feasible when
+//! `t_min - t_p <= N lambda <= t_max - t_p` (their Eq. 5), `2 M` half-planes.
+//!
+//! Half-plane `h = 2 k + side` belongs to cable `k`; `side` 0 is the lower
+//! limit, 1 the upper. Each is written `a_h . lambda <= c_h` with the outward
+//! normal `a_h` (`-n_k` for the lower limit, `n_k` for the upper) and the
+//! slack `c_h - a_h . lambda >= 0` inside.
+//!
+//! Two ways to the vertices, tested against each other:
+//! * [`FeasiblePolygon::walk`]: a first vertex (warm or by the cold search over
+//!   line pairs, Eq. 8), then from vertex to vertex along the edges
+//!   (Eqs. 9-21), counter-clockwise, with the rule for three or more
+//!   concurrent lines (Sect. 2.3);
+//! * [`FeasiblePolygon::brute_force`]: every pairwise intersection that
+//!   satisfies all half-planes (Mikelsons et al. 2008), sorted by angle.
+//!
+//! The centroid is the shoelace formula (Eqs. 22-23) on the ordered vertices.
+
+mod brute_force;
+mod centroid;
+mod first_vertex;
+mod walk;
+
+use nalgebra::Vector2;
+
+pub use centroid::centroid;
+
+use crate::{
+    scalar::{all_finite, finite, max, min},
+    tolerance, Error, Real,
+};
+
+/// Which limit of a cable a polygon edge lies on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Bound {
+    /// `t_i = t_min_i`.
+    Min,
+    /// `t_i = t_max_i`.
+    Max,
+}
+
+/// Two cables at a limit each: a vertex of the feasible polygon. It does not
+/// depend on the null-space basis, so it carries over from one control cycle
+/// to the next as the warm start of [`FeasiblePolygon::walk`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ActivePair {
+    /// First cable (0-based) and the limit it is at.
+    pub first: (u8, Bound),
+    /// Second cable (0-based) and the limit it is at.
+    pub second: (u8, Bound),
+}
+
+/// A vertex and the two half-planes whose lines cross there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vertex<T: Real> {
+    /// Position in null-space coordinates.
+    pub point: Vector2<T>,
+    /// The two half-plane indices (`2 * cable + side`).
+    pub lines: (u8, u8),
+    /// Bound on the position's error from rounding: the slack tolerance
+    /// amplified by the conditioning of the two lines (large when they are
+    /// nearly parallel).
+    pub error: T,
+}
+
+/// Up to `4 M` vertices without allocation (a convex polygon cut from `2 M`
+/// half-planes has at most `2 M`; the brute force may see a few more
+/// near-duplicates before merging them).
+#[derive(Debug, Clone)]
+pub struct VertexList<T: Real, const M: usize> {
+    slots: [[Vertex<T>; M]; 4],
+    len: usize,
+}
+
+impl<T: Real, const M: usize> VertexList<T, M> {
+    /// An empty list.
+    pub fn new() -> Self {
+        let empty = Vertex { point: Vector2::zeros(), lines: (0, 0), error: T::zero() };
+        Self { slots: [[empty; M]; 4], len: 0 }
+    }
+
+    /// Removes every vertex.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Capacity, `4 M`.
+    pub const CAPACITY: usize = 4 * M;
+
+    fn push(&mut self, v: Vertex<T>) -> Result<(), Error> {
+        if self.len >= Self::CAPACITY {
+            return Err(Error::NoConvergence);
+        }
+        self.slots[self.len / M][self.len % M] = v;
+        self.len += 1;
+        Ok(())
+    }
+
+    /// Number of vertices.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// `true` when there is no vertex.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Vertex `i`, `i < len()`.
+    pub fn get(&self, i: usize) -> Vertex<T> {
+        self.slots[i / M][i % M]
+    }
+
+    fn set(&mut self, i: usize, v: Vertex<T>) {
+        self.slots[i / M][i % M] = v;
+    }
+
+    /// The vertices in order.
+    pub fn iter(&self) -> impl Iterator<Item = Vertex<T>> + '_ {
+        (0..self.len).map(move |i| self.get(i))
+    }
+}
+
+impl<T: Real, const M: usize> Default for VertexList<T, M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The result of a vertex enumeration.
+#[derive(Debug, Clone)]
+pub struct PolygonCentroid<T: Real, const M: usize> {
+    /// Centroid (by area) in null-space coordinates.
+    pub centroid: Vector2<T>,
+    /// Vertices, counter-clockwise.
+    pub vertices: VertexList<T, M>,
+    /// Area (zero for a degenerate polygon: a point or a segment).
+    pub area: T,
+    /// The vertex farthest from being cut off by a third line, to warm-start
+    /// the next call from.
+    pub robust_pair: ActivePair,
+    /// `true` when the walk started from the given warm start.
+    pub warm_start_held: bool,
+}
+
+/// [`PolygonCentroid`] without the vertices, which stay in the caller's
+/// [`VertexList`] ([`FeasiblePolygon::walk_into`]): a few words to return.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PolygonSummary<T: Real> {
+    /// Centroid (by area) in null-space coordinates.
+    pub centroid: Vector2<T>,
+    /// Number of vertices.
+    pub vertices: usize,
+    /// Area (zero for a degenerate polygon: a point or a segment).
+    pub area: T,
+    /// The vertex farthest from being cut off by a third line.
+    pub robust_pair: ActivePair,
+    /// `true` when the walk started from the given warm start.
+    pub warm_start_held: bool,
+}
+
+impl<T: Real, const M: usize> PolygonCentroid<T, M> {
+    fn from_summary(s: PolygonSummary<T>, vertices: VertexList<T, M>) -> Self {
+        Self {
+            centroid: s.centroid,
+            vertices,
+            area: s.area,
+            robust_pair: s.robust_pair,
+            warm_start_held: s.warm_start_held,
+        }
+    }
+}
+
+/// The `2 M` half-planes in null-space coordinates.
+#[derive(Debug, Clone)]
+pub struct FeasiblePolygon<T: Real, const M: usize> {
+    pub(crate) rows: [Vector2<T>; M],
+    norms: [T; M],
+    pub(crate) lower: [T; M],
+    pub(crate) upper: [T; M],
+    used: [bool; M],
+    tol: T,
+    parallel: T,
+    /// `parallel * norms[k]`: below this, `|n_k . d|` for a unit `d` counts
+    /// as parallel.
+    ptol: [T; M],
+}
+
+impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
+    /// Half-planes `lower_k <= n_k . lambda <= upper_k` for each cable `k`
+    /// (`lower = t_min - t_p`, `upper = t_max - t_p`). A cable whose row `n_k`
+    /// is (numerically) zero has a tension fixed by equilibrium: it is checked
+    /// against its limits and left out ([`Error::Infeasible`] if outside).
+    pub fn new(rows: [Vector2<T>; M], lower: [T; M], upper: [T; M]) -> Result<Self, Error> {
+        let mut poly = Self::zeroed();
+        poly.rows = rows;
+        poly.lower = lower;
+        poly.upper = upper;
+        poly.prepare()?;
+        Ok(poly)
+    }
+
+    /// No half-plane set yet: fill `rows`, `lower`, `upper`, then [`Self::prepare`].
+    pub(crate) fn zeroed() -> Self {
+        let z = [T::zero(); M];
+        Self {
+            rows: [Vector2::zeros(); M],
+            norms: z,
+            lower: z,
+            upper: z,
+            used: [false; M],
+            tol: T::zero(),
+            parallel: T::zero(),
+            ptol: z,
+        }
+    }
+
+    /// Checks `rows`, `lower` and `upper` and derives the rest ([`Self::new`]).
+    pub(crate) fn prepare(&mut self) -> Result<(), Error> {
+        if M > 32 {
+            return Err(Error::UnsupportedShape);
+        }
+        let rows_finite = all_finite(self.rows.iter().flat_map(|r| [r.x, r.y]));
+        if !(rows_finite && finite(&self.lower) && finite(&self.upper)) {
+            return Err(Error::NonFinite);
+        }
+        let mut scale = T::one();
+        let mut row_max = T::zero();
+        for k in 0..M {
+            let n = self.rows[k].norm_squared().sqrt_native();
+            self.norms[k] = n;
+            scale = max(scale, max(self.lower[k].abs(), self.upper[k].abs()));
+            row_max = max(row_max, n);
+        }
+        if row_max == T::zero() {
+            return Err(Error::Singular);
+        }
+        // Slack tolerance in tension units: rounding of t_p and of N lambda.
+        let tol = tolerance::slack(scale);
+        let row_floor = tolerance::negligible_row(row_max);
+        // Lines closer than this to parallel (sine of their angle) are taken
+        // as parallel: their crossing is lost in rounding, and the sliver
+        // between them is too thin to move the centroid.
+        let parallel = tolerance::parallel::<T>();
+        for k in 0..M {
+            if self.lower[k] > self.upper[k] {
+                return Err(Error::InvalidLimits);
+            }
+            self.used[k] = true;
+            if self.norms[k] <= row_floor {
+                if self.lower[k] > tol || self.upper[k] < -tol {
+                    return Err(Error::Infeasible);
+                }
+                self.used[k] = false;
+            }
+            self.ptol[k] = parallel * self.norms[k];
+        }
+        self.tol = tol;
+        self.parallel = parallel;
+        Ok(())
+    }
+
+    /// The slack tolerance used for "on a line" and "feasible", tension units.
+    pub fn tolerance(&self) -> T {
+        self.tol
+    }
+
+    #[inline]
+    fn normal(&self, h: usize) -> Vector2<T> {
+        let n = self.rows[h / 2];
+        if h.is_multiple_of(2) {
+            -n
+        } else {
+            n
+        }
+    }
+
+    #[inline]
+    fn offset(&self, h: usize) -> T {
+        if h.is_multiple_of(2) {
+            -self.lower[h / 2]
+        } else {
+            self.upper[h / 2]
+        }
+    }
+
+    #[inline]
+    fn slack(&self, h: usize, p: &Vector2<T>) -> T {
+        self.offset(h) - self.normal(h).dot(p)
+    }
+
+    #[inline]
+    fn is_used(&self, h: usize) -> bool {
+        self.used[h / 2]
+    }
+
+    /// Half-plane `h`'s line `n . lambda = c` as `(n, c)` (`h = 2 k` is
+    /// cable `k`'s lower limit, `2 k + 1` its upper one).
+    pub(crate) fn line(&self, h: usize) -> (Vector2<T>, T) {
+        (self.normal(h), self.offset(h))
+    }
+
+    /// `true` when `p` satisfies every half-plane within the tolerance.
+    pub fn contains(&self, p: &Vector2<T>) -> bool {
+        (0..2 * M).all(|h| !self.is_used(h) || self.slack(h, p) >= -self.tol)
+    }
+
+    /// Intersection of the lines of half-planes `h1` and `h2` (Cramer's rule
+    /// on their Eq. 6) and a bound on its error, `tol (|a_1| + |a_2|) / |det|`;
+    /// `None` when (nearly) parallel.
+    #[inline]
+    fn intersect(&self, h1: usize, h2: usize) -> Option<(Vector2<T>, T)> {
+        let a1 = self.normal(h1);
+        let a2 = self.normal(h2);
+        let (n1, n2) = (self.norms[h1 / 2], self.norms[h2 / 2]);
+        let det = a1.x * a2.y - a1.y * a2.x;
+        let abs_det = det.abs();
+        if abs_det <= self.parallel * n1 * n2 {
+            return None;
+        }
+        let c1 = self.offset(h1);
+        let c2 = self.offset(h2);
+        let p = Vector2::new((c1 * a2.y - c2 * a1.y) / det, (a1.x * c2 - a2.x * c1) / det);
+        let error = self.tol * (n1 + n2) / abs_det;
+        (p.x.is_finite() & p.y.is_finite() & error.is_finite()).then_some((p, error))
+    }
+
+    /// The vertex of two lines if it satisfies every half-plane within the
+    /// tolerance widened by its own error bound.
+    fn vertex_of(&self, h1: usize, h2: usize) -> Option<Vertex<T>> {
+        if h1 / 2 == h2 / 2 || !self.is_used(h1) || !self.is_used(h2) {
+            return None;
+        }
+        let (p, error) = self.intersect(h1, h2)?;
+        let t = self.tol;
+        for k in 0..M {
+            if !self.used[k] {
+                continue;
+            }
+            // Both half-planes of cable k: n_k . p - lower >= -w, upper - n_k . p >= -w.
+            let w = t + self.norms[k] * error;
+            let np = self.rows[k].dot(&p);
+            if !(np - self.lower[k] >= -w && self.upper[k] - np >= -w) {
+                return None;
+            }
+        }
+        Some(Vertex { point: p, lines: (h1 as u8, h2 as u8), error })
+    }
+
+    /// Largest row norm.
+    fn row_max(&self) -> T {
+        self.norms.iter().fold(T::zero(), |a, &b| max(a, b))
+    }
+}
+
+fn pair_of(lines: (u8, u8)) -> ActivePair {
+    ActivePair { first: line_of(lines.0 as usize), second: line_of(lines.1 as usize) }
+}
+
+/// Counter-clockwise direction along a line with outward normal `a`.
+#[inline]
+fn direction<T: Real>(a: &Vector2<T>, norm: T) -> Vector2<T> {
+    let o = a / norm;
+    Vector2::new(-o.y, o.x)
+}
+
+fn line_index((cable, bound): (u8, Bound)) -> usize {
+    2 * cable as usize + if bound == Bound::Max { 1 } else { 0 }
+}
+
+fn line_of(h: usize) -> (u8, Bound) {
+    ((h / 2) as u8, if h % 2 == 1 { Bound::Max } else { Bound::Min })
+}

@@ -1,0 +1,214 @@
+//! The walk from vertex to vertex along the polygon's edges, counter-clockwise
+//! (Lamaury & Gouttefarde 2013, Eqs. 9-21, concurrent lines: Sect. 2.3).
+use nalgebra::Vector2;
+
+use super::*;
+
+impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
+    /// All vertices by walking the boundary counter-clockwise from a first
+    /// vertex (warm start if it still gives a vertex, else the cold search),
+    /// and their centroid.
+    ///
+    /// Worst case: the cold search (`O(M^2)` clipping, and `4 C(M,2)` solves,
+    /// `O(M^3)`, only for lines it cannot rule out), then at most
+    /// `2 M` walk steps of `O(M)` each, then the `O(M^2)` choice of the
+    /// warm-start vertex. Should rounding make the walk revisit an edge, it
+    /// falls back to [`Self::brute_force`] (`O(M^3)` too).
+    pub fn walk(&self, warm: Option<ActivePair>) -> Result<PolygonCentroid<T, M>, Error> {
+        let mut vertices = VertexList::new();
+        let summary = self.walk_into(warm, &mut vertices)?;
+        Ok(PolygonCentroid::from_summary(summary, vertices))
+    }
+
+    /// [`Self::walk`] with the vertices written to the caller's list (which
+    /// is cleared first): nothing large is returned.
+    pub fn walk_into(
+        &self,
+        warm: Option<ActivePair>,
+        vertices: &mut VertexList<T, M>,
+    ) -> Result<PolygonSummary<T>, Error> {
+        let mut held = false;
+        let mut start = None;
+        if let Some(pair) = warm {
+            let h1 = line_index(pair.first);
+            let h2 = line_index(pair.second);
+            if h1 < 2 * M && h2 < 2 * M {
+                start = self.vertex_of(h1, h2);
+                held = start.is_some();
+            }
+        }
+        let start = match start {
+            Some(v) => v,
+            None => self.first_vertex().ok_or(Error::Infeasible)?,
+        };
+        match self.walk_from(start, vertices) {
+            Some(robust_pair) => self.finish(vertices, Some(robust_pair), held),
+            None => self.brute_force_into(vertices),
+        }
+    }
+
+    /// The walk itself; `None` on a numerical anomaly (an edge met twice).
+    /// Also returns the vertex farthest from the lines that do not define
+    /// it (the robust warm start for the next cycle), from slacks the walk
+    /// computes anyway.
+    ///
+    /// Per step and per cable: `n_k . v` and `n_k . d` (two dot products), at
+    /// most one division for the limit the edge approaches (Eqs. 16-18), then
+    /// the smallest step (Eq. 19) and, among lines reached at the same point,
+    /// the edge-supporting one (Sect. 2.3).
+    fn walk_from(&self, start: Vertex<T>, vertices: &mut VertexList<T, M>) -> Option<ActivePair> {
+        vertices.clear();
+        vertices.push(start).ok()?;
+        // Outgoing edge at the first vertex: an active line along which no
+        // other active half-plane is violated (Sect. 2.2.2, Eqs. 10-11). The
+        // two lines that define the vertex are active by construction (their
+        // computed slack can exceed the tolerance when they are nearly parallel).
+        let (l0, l1) = (start.lines.0 as usize, start.lines.1 as usize);
+        let mut active: u64 = (1 << l0) | (1 << l1);
+        // Margin of the first vertex: its smallest slack to another cable's lines.
+        let mut best_margin = T::max_value()?;
+        for k in 0..M {
+            if !self.used[k] {
+                continue;
+            }
+            let nv = self.rows[k].dot(&start.point);
+            let (s_lo, s_hi) = (nv - self.lower[k], self.upper[k] - nv);
+            if s_lo.abs() <= self.tol {
+                active |= 1 << (2 * k);
+            }
+            if s_hi.abs() <= self.tol {
+                active |= 1 << (2 * k + 1);
+            }
+            if k != l0 / 2 && k != l1 / 2 {
+                best_margin = min(best_margin, min(s_lo, s_hi) / self.norms[k]);
+            }
+        }
+        let mut edge = None;
+        let mut candidates = active;
+        for _ in 0..2 * M {
+            if candidates == 0 {
+                break;
+            }
+            let h = candidates.trailing_zeros() as usize;
+            candidates &= candidates - 1;
+            let d = direction(&self.normal(h), self.norms[h / 2]);
+            let mut others = active & !(1 << h);
+            let mut blocked = false;
+            for _ in 0..2 * M {
+                if others == 0 {
+                    break;
+                }
+                let g = others.trailing_zeros() as usize;
+                others &= others - 1;
+                if self.normal(g).dot(&d) > self.ptol[g / 2] {
+                    blocked = true;
+                    break;
+                }
+            }
+            if !blocked {
+                edge = Some(h);
+                break;
+            }
+        }
+        let mut best_lines = start.lines;
+        let Some(first_edge) = edge else {
+            return Some(pair_of(best_lines)); // a single point
+        };
+        let mut visited: u64 = 1 << first_edge;
+        let mut h = first_edge;
+        let mut v = start.point;
+        // The edge that led to `v` (none yet at the first vertex, whose
+        // margin is known).
+        let mut prev = None;
+        let big = T::max_value()?;
+        // Per cable, the step to the limit the edge approaches and the rate
+        // n_k . d at which it is approached (zero: never reached).
+        let mut steps = [big; M];
+        let mut rates = [T::zero(); M];
+        for _ in 0..=2 * M {
+            let a_h = self.normal(h);
+            let o = a_h / self.norms[h / 2];
+            let d = Vector2::new(-o.y, o.x);
+            // Smallest step to another line along the edge (Eqs. 16-19): per
+            // cable only the limit the direction approaches can be reached.
+            // The same pass gives the margin of `v` (its smallest slack to
+            // the lines of the cables that do not define it).
+            let mut alpha_min = big;
+            let mut any = false;
+            let mut margin = big;
+            for k in 0..M {
+                if !self.used[k] {
+                    continue;
+                }
+                let nv = self.rows[k].dot(&v);
+                let nd = self.rows[k].dot(&d);
+                let (s_lo, s_hi) = (nv - self.lower[k], self.upper[k] - nv);
+                if let Some(p) = prev {
+                    if k != h / 2 && k != p / 2 {
+                        margin = min(margin, min(s_lo, s_hi) / self.norms[k]);
+                    }
+                }
+                let dtol = self.ptol[k];
+                // The signed rate: positive towards the upper limit.
+                let (alpha, rate) = if nd > dtol && 2 * k + 1 != h {
+                    (s_hi / nd, nd)
+                } else if -nd > dtol && 2 * k != h {
+                    (s_lo / -nd, nd)
+                } else {
+                    rates[k] = T::zero();
+                    continue;
+                };
+                any = true;
+                steps[k] = alpha;
+                rates[k] = rate;
+                alpha_min = min(alpha_min, alpha);
+            }
+            if let Some(p) = prev {
+                if margin > best_margin {
+                    best_margin = margin;
+                    best_lines = (p as u8, h as u8);
+                }
+            }
+            if !any {
+                return None;
+            }
+            let alpha = max(alpha_min, T::zero());
+            // Among lines reached there (ties: concurrent lines, Sect. 2.3),
+            // the edge-supporting one bounds the normal cone: the largest
+            // counter-clockwise angle from the current normal. A line's slack
+            // at the step is `(step_k - alpha) |n_k . d|`.
+            let mut next = None;
+            let mut best_cos = big;
+            for k in 0..M {
+                let rate = rates[k];
+                if rate == T::zero() {
+                    continue;
+                }
+                let (g, sign, speed) =
+                    if rate > T::zero() { (2 * k + 1, T::one(), rate) } else { (2 * k, -T::one(), -rate) };
+                if (steps[k] - alpha) * speed <= self.tol {
+                    let cos = sign * self.rows[k].dot(&o) / self.norms[k];
+                    if cos < best_cos {
+                        best_cos = cos;
+                        next = Some(g);
+                    }
+                }
+            }
+            let g = next?;
+            if g == first_edge {
+                return Some(pair_of(best_lines));
+            }
+            if visited & (1 << g) != 0 {
+                return None;
+            }
+            visited |= 1 << g;
+            let w_guess = v + d * alpha;
+            let (w, error) = self.intersect(h, g).unwrap_or((w_guess, self.tol));
+            vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
+            prev = Some(h);
+            h = g;
+            v = w;
+        }
+        None
+    }
+}
