@@ -82,7 +82,8 @@ impl<T: Real, const M: usize> NullSpaceProblem<T, M> {
         if !(finite(particular.as_slice()) && finite(lower.as_slice()) && finite(upper.as_slice())) {
             return Err(Error::NonFinite);
         }
-        let mut scale = T::one();
+        // Relative to the offsets only, as the polygon's (no floor of 1 N).
+        let mut scale = T::zero();
         for k in 0..M {
             scale = scale.max(lower[k].abs()).max(upper[k].abs());
         }

@@ -28,6 +28,18 @@ pub enum Error {
 }
 
 impl Error {
+    /// Whether the error is a property of the problem that no other start
+    /// would change (an `infeasible` certificate, invalid or non-finite
+    /// input, a shape the method does not serve, a degenerate cable), as
+    /// opposed to a method's numerical failure (`no-convergence`,
+    /// `singular` pivots inside an iteration, `method-failed`).
+    pub const fn is_certain(self) -> bool {
+        matches!(
+            self,
+            Error::Infeasible | Error::InvalidLimits | Error::UnsupportedShape | Error::DegenerateCable
+        )
+    }
+
     /// The one-word status of the conventions' tension tables.
     pub fn status(self) -> &'static str {
         match self {

@@ -201,7 +201,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
         let (mut t, warm_start) = self.start_point(problem, start)?;
 
         let f_scale = f.amax() + w.amax() * limits.scale();
-        let eq_tol = tolerance::equality(f_scale.max(T::one()));
+        let eq_tol = tolerance::equality(f_scale);
         let mut on_sigma = (f - w * t).amax() <= eq_tol;
         let mut hr: SMatrix<T, M, M> = SMatrix::zeros();
         let mut stuck = 0;
@@ -214,8 +214,19 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
             if on_sigma && terms.reduced_grad_norm * half_range <= self.settings.tolerance.max(rounding) {
                 // Limits near the largest float can put W t beyond it: such
                 // a result cannot be checked, so it is not returned.
-                if !finite(t.as_slice()) || !finite((w * t - f).as_slice()) {
+                let residual = f - w * t;
+                if !finite(t.as_slice()) || !finite(residual.as_slice()) {
                     return Err(Error::NonFinite);
+                }
+                // `on_sigma` allows the rounding of the terms of `W t`; the
+                // answer meets `W t = f` to the rounding of the solve. Should
+                // that leave the limits (a start that was only near the
+                // solutions, e.g. the unique one of `m = n` out of the box),
+                // the infeasibility decision settles it.
+                t += fact.min_norm_solution(&residual);
+                if !self.in_domain(&t, limits) {
+                    on_sigma = false;
+                    break;
                 }
                 return Ok(Solution {
                     tensions: t,
@@ -226,7 +237,10 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
             if iteration == self.settings.max_iterations {
                 break;
             }
-            let step = newton_step(fact, &terms, step_p, &mut hr)?;
+            // A reduced Hessian that rounding made indefinite (huge barrier
+            // terms near a limit, in f32) says nothing about `W`: the
+            // iteration stops and the infeasibility decision settles it.
+            let Ok(step) = newton_step(fact, &terms, step_p, &mut hr) else { break };
             let Some(s) = self.line_search(&mut t, &step, &terms.grad, limits, on_sigma) else { break };
             if !on_sigma {
                 stuck = if s < T::lit(STUCK_STEP) { stuck + 1 } else { 0 };

@@ -49,7 +49,15 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     // Among the minimisers (within the rounding of the sum), the smallest 2-norm.
     let best = g.dot(&x) + T::lit(M as f64) * tol;
     let cut = base.with_extra(&g, best);
-    let tie = project(&cut, &SVector::zeros(), tol)?;
-    let steps = start.steps + lp_steps + tie.steps;
-    checked_solution(&prob.tensions(&tie.x), limits, tol, steps, 0, None, WarmStart::NotGiven)
+    let (lambda, tie_steps) = match project(&cut, &SVector::zeros(), tol) {
+        Ok(tie) => (tie.x, tie.steps),
+        // The cut holds `x`, a feasible minimiser: an "infeasible" from the
+        // tie-break is rounding of the cut's normal against the active limits
+        // it is a combination of (at the optimum `g` lies in their cone), never
+        // a proof about the tensions. Keep the minimiser found.
+        Err(Error::Infeasible) => (x, 0),
+        Err(e) => return Err(e),
+    };
+    let steps = start.steps + lp_steps + tie_steps;
+    checked_solution(&prob.tensions(&lambda), limits, tol, steps, 0, None, WarmStart::NotGiven)
 }

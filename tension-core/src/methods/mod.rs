@@ -106,7 +106,16 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     let mut factorization = WrenchFactorization::zeroed();
     let null_columns = if method.reads_null_space() { M - N } else { 0 };
     factorization.factor(w, &[true; M], null_columns)?;
-    method.dispatch(&Problem { w, f, limits, factorization: &factorization }, previous)
+    let problem = Problem { w, f, limits, factorization: &factorization };
+    let result = method.dispatch(&problem, previous);
+    // A warm start may make a method faster, never make it fail: a failure
+    // that is not a proof about the problem is tried again from cold.
+    match result {
+        Err(e) if method.warm_starts() && *previous != PreviousCycle::NONE && !e.is_certain() => {
+            method.dispatch(&problem, &PreviousCycle::NONE)
+        }
+        result => result,
+    }
 }
 
 /// The registry: one line per method, `Variant = wire number, "name", module;`.

@@ -39,7 +39,9 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 
 /// Centroid and area of a polygon given by its ordered vertices: the
 /// shoelace formulas (Lamaury & Gouttefarde 2013, Eqs. 22-23), taken about
-/// the first vertex for accuracy. A polygon of (numerically) zero area, a
+/// the first vertex for accuracy, in coordinates divided by the polygon's
+/// extent (the centroid's sums are cubes of the coordinates, which overflow
+/// `f32` for polygons beyond 7e12 N). A polygon of (numerically) zero area, a
 /// point or a segment, has as centroid the midpoint of its two farthest
 /// vertices.
 pub fn centroid<T: Real, const M: usize>(vertices: &VertexList<T, M>, tol: T) -> (Vector2<T>, T) {
@@ -48,24 +50,32 @@ pub fn centroid<T: Real, const M: usize>(vertices: &VertexList<T, M>, tol: T) ->
         return (Vector2::zeros(), T::zero());
     }
     let origin = vertices.get(0).point;
+    let mut extent = T::zero();
+    for v in vertices.iter() {
+        let d = v.point - origin;
+        extent = max(extent, max(d.x.abs(), d.y.abs()));
+    }
+    let inv = if extent > T::zero() { T::one() / extent } else { T::one() };
     let mut twice_area = T::zero();
     let mut cx = T::zero();
     let mut cy = T::zero();
     let (mut lo, mut hi) = (Vector2::zeros(), Vector2::zeros());
+    let mut p = Vector2::zeros();
     for i in 0..q {
-        let p = vertices.get(i).point - origin;
-        let n = vertices.get((i + 1) % q).point - origin;
+        let n = (vertices.get((i + 1) % q).point - origin) * inv;
         let cross = p.x * n.y - n.x * p.y;
         twice_area += cross;
         cx += (p.x + n.x) * cross;
         cy += (p.y + n.y) * cross;
         lo = Vector2::new(min(lo.x, p.x), min(lo.y, p.y));
         hi = Vector2::new(max(hi.x, p.x), max(hi.y, p.y));
+        p = n;
     }
+    // In the scaled coordinates: area / extent^2, tolerance / extent.
     let area = twice_area * T::lit(0.5);
-    if area > tol * (hi - lo).norm_squared().sqrt_native() {
+    if area > tol * inv * (hi - lo).norm_squared().sqrt_native() {
         let c = Vector2::new(cx, cy) / (T::lit(6.0) * area);
-        return (c + origin, area);
+        return (c * extent + origin, area * extent * extent);
     }
     // Zero area: the midpoint of the two farthest vertices.
     let mut diameter = T::zero();

@@ -226,7 +226,9 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         if !(rows_finite && finite(&self.lower) && finite(&self.upper)) {
             return Err(Error::NonFinite);
         }
-        let mut scale = T::one();
+        // The tolerances scale with the limits' offsets alone (no floor of
+        // 1 N): the same problem in other units gets the same answer.
+        let mut scale = T::zero();
         let mut row_max = T::zero();
         for k in 0..M {
             let n = self.rows[k].norm_squared().sqrt_native();
