@@ -352,3 +352,59 @@ fn nearly_parallel_bundles() {
         })
         .unwrap();
 }
+
+/// The same pose twice, as a robot at rest: the second solve's warm start
+/// holds (a lost one falls back to the cold search or to the brute force,
+/// twice the cost on the board). At the symmetric centre of suspended-8 two
+/// cables' limit lines coincide, which used to make the walk from the warm
+/// vertex miss its own start and fall back every cycle.
+fn repeated_pose_holds<T: tension_core::Real + std::fmt::Debug>(
+    robot_name: &str,
+    poses: &[[f64; 6]],
+) -> usize {
+    let robot: tension_core::Robot<T, 6, 8> = cdpr_integration_tests::shipped_robot(robot_name);
+    let mut held = 0;
+    for p in poses {
+        let pose = SVector::<T, 6>::from_fn(|i, _| T::lit(p[i]));
+        let (Ok(w), Ok(f)) =
+            (robot.wrench_matrix(&pose), robot.required_wrench(&pose, &SVector::zeros(), None))
+        else {
+            continue;
+        };
+        let mut solver = tension_core::TensionSolver::<T, 8>::new(tension_core::Method::Barycenter);
+        if solver.solve(&w, &f, robot.limits()).is_err() {
+            continue;
+        }
+        for _ in 0..2 {
+            let again = solver.solve(&w, &f, robot.limits()).unwrap();
+            assert_eq!(again.diagnostics.warm_start, WarmStart::Held, "{robot_name} at {p:?}");
+        }
+        held += 1;
+    }
+    held
+}
+
+#[test]
+fn warm_start_holds_at_rest_including_symmetric_poses() {
+    let mut poses = Vec::new();
+    // Symmetric: the centre of the frame at several heights, level.
+    for z in [0.6, 1.0, 1.5, 1.8, 2.2, 2.6] {
+        poses.push([0.0, 0.0, z, 0.0, 0.0, 0.0]);
+    }
+    // And a grid of other static poses.
+    for i in 0..5 {
+        for j in 0..5 {
+            for k in 0..4 {
+                let (x, y, z) = (-0.8 + 0.4 * i as f64, -0.6 + 0.3 * j as f64, 0.8 + 0.5 * k as f64);
+                poses.push([x, y, z, 0.05 * (i as f64 - 2.0), 0.0, 0.1 * (j as f64 - 2.0)]);
+            }
+        }
+    }
+    for robot in ["suspended-8", "ipanema1", "cogiro"] {
+        let a = repeated_pose_holds::<f64>(robot, &poses);
+        let b = repeated_pose_holds::<f32>(robot, &poses);
+        assert!(a >= 10 && b >= 10, "{robot}: only {a} / {b} feasible static poses");
+    }
+    // The pose of the report: suspended-8 at rest at its centre.
+    assert_eq!(repeated_pose_holds::<f32>("suspended-8", &[[0.0, 0.0, 1.8, 0.0, 0.0, 0.0]]), 1);
+}

@@ -14,7 +14,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         robust_pair: Option<ActivePair>,
         held: bool,
     ) -> Result<PolygonSummary<T>, Error> {
-        let (centroid, area) = centroid(vertices, self.tol);
+        let (centroid, area) = centroid(vertices, self.tol, self.inv_scale);
         let robust_pair = robust_pair.unwrap_or_else(|| {
             let mut best = vertices.get(0);
             let mut best_margin = -T::max_value().unwrap_or_else(T::one);
@@ -39,23 +39,23 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 
 /// Centroid and area of a polygon given by its ordered vertices: the
 /// shoelace formulas (Lamaury & Gouttefarde 2013, Eqs. 22-23), taken about
-/// the first vertex for accuracy, in coordinates divided by the polygon's
-/// extent (the centroid's sums are cubes of the coordinates, which overflow
-/// `f32` for polygons beyond 7e12 N). A polygon of (numerically) zero area, a
+/// the first vertex for accuracy, in coordinates multiplied by `inv_scale`
+/// (the inverse of the polygon's size: the centroid's sums are cubes of the
+/// coordinates, which overflow `f32` for polygons beyond 7e12 N). A polygon of (numerically) zero area, a
 /// point or a segment, has as centroid the midpoint of its two farthest
 /// vertices.
-pub fn centroid<T: Real, const M: usize>(vertices: &VertexList<T, M>, tol: T) -> (Vector2<T>, T) {
+pub fn centroid<T: Real, const M: usize>(
+    vertices: &VertexList<T, M>,
+    tol: T,
+    inv_scale: T,
+) -> (Vector2<T>, T) {
     let q = vertices.len();
     if q == 0 {
         return (Vector2::zeros(), T::zero());
     }
     let origin = vertices.get(0).point;
-    let mut extent = T::zero();
-    for v in vertices.iter() {
-        let d = v.point - origin;
-        extent = max(extent, max(d.x.abs(), d.y.abs()));
-    }
-    let inv = if extent > T::zero() { T::one() / extent } else { T::one() };
+    let inv = inv_scale;
+    let extent = T::one() / inv_scale;
     let mut twice_area = T::zero();
     let mut cx = T::zero();
     let mut cy = T::zero();
@@ -71,7 +71,7 @@ pub fn centroid<T: Real, const M: usize>(vertices: &VertexList<T, M>, tol: T) ->
         hi = Vector2::new(max(hi.x, p.x), max(hi.y, p.y));
         p = n;
     }
-    // In the scaled coordinates: area / extent^2, tolerance / extent.
+    // In the scaled coordinates: area * inv^2, tolerance * inv.
     let area = twice_area * T::lit(0.5);
     if area > tol * inv * (hi - lo).norm_squared().sqrt_native() {
         let c = Vector2::new(cx, cy) / (T::lit(6.0) * area);

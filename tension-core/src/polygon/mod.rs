@@ -182,6 +182,9 @@ pub struct FeasiblePolygon<T: Real, const M: usize> {
     pub(crate) upper: [T; M],
     used: [bool; M],
     tol: T,
+    /// `1 / scale`, the offsets' size: the centroid's sums are taken in
+    /// coordinates of about unit size.
+    inv_scale: T,
     parallel: T,
     /// `parallel * norms[k]`: below this, `|n_k . d|` for a unit `d` counts
     /// as parallel.
@@ -212,6 +215,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             upper: z,
             used: [false; M],
             tol: T::zero(),
+            inv_scale: T::one(),
             parallel: T::zero(),
             ptol: z,
         }
@@ -260,6 +264,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             self.ptol[k] = parallel * self.norms[k];
         }
         self.tol = tol;
+        self.inv_scale = if scale > T::zero() { T::one() / scale } else { T::one() };
         self.parallel = parallel;
         Ok(())
     }

@@ -179,6 +179,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // at the step is `(step_k - alpha) |n_k . d|`.
             let mut next = None;
             let mut best_cos = big;
+            let mut first_edge_cos = None;
             for k in 0..M {
                 let rate = rates[k];
                 if rate == T::zero() {
@@ -192,7 +193,17 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                         best_cos = cos;
                         next = Some(g);
                     }
+                    if g == first_edge {
+                        first_edge_cos = Some(cos);
+                    }
                 }
+            }
+            // Back at the first vertex, a line that coincides with the first
+            // edge's (two cables whose limits meet the null space alike, as
+            // at a symmetric pose) ties with it: the walk is closed, not on a
+            // new edge that it would then meet twice.
+            if first_edge_cos.is_some_and(|c| c <= best_cos + self.parallel) {
+                next = Some(first_edge);
             }
             let g = next?;
             if g == first_edge {
