@@ -22,7 +22,7 @@
 //! * [`EXIT_FAIL`]` | flags` (32..=63) otherwise, see [`fail`].
 
 use cdpr_control::controller::{Controller, Wrench};
-use cdpr_control::protocol::{HostMessage, Reason, State};
+use cdpr_control::protocol::{HostMessage, State};
 use cdpr_control::robot::suspended8;
 use cdpr_control::stats::{Running, Samples, Summary};
 use cdpr_control::trajectory::{self, Setpoint};
@@ -115,28 +115,6 @@ impl Transitions {
 
     fn as_slice(&self) -> &[State] {
         &self.states[..self.len]
-    }
-}
-
-fn state_name(s: State) -> &'static str {
-    match s {
-        State::Disabled => "disabled",
-        State::Enabled => "enabled",
-        State::Holding => "holding",
-        State::Fault => "fault",
-    }
-}
-
-fn reason_name(r: Reason) -> &'static str {
-    match r {
-        Reason::None => "-",
-        Reason::Infeasible => "infeasible setpoint",
-        Reason::BadSetpoint => "bad setpoint",
-        Reason::Stale => "stale setpoint stream",
-        Reason::HoldTimeout => "held too long",
-        Reason::Overruns => "deadline overruns",
-        Reason::Output => "drive error",
-        Reason::Tracking => "cable length tracking error",
     }
 }
 
@@ -249,7 +227,7 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
                     WarmStart::Lost => outcomes.warm_lost += 1,
                     WarmStart::NotGiven => {}
                 }
-                if command.saturated != 0 {
+                if command.saturated.any() {
                     outcomes.saturated += 1;
                 }
             }
@@ -296,8 +274,8 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
             defmt::println!(
                 "cycle {=u32}: state -> {=str} ({=str})",
                 k,
-                state_name(report.state),
-                reason_name(report.reason)
+                report.state.name(),
+                report.reason.name()
             );
         }
         let transition = ok != previous_ok;
@@ -594,7 +572,7 @@ fn show(k: u32, setpoint: &Setpoint, report: &StepReport, cost: u32) {
         k,
         cost,
         board::UNIT,
-        state_name(report.state),
+        report.state.name(),
         pose,
     );
     let torques: [f32; 8] = rounded(&report.torques, 3);
