@@ -7,7 +7,7 @@ use tension_core::nalgebra::{SMatrix, SVector};
 use tension_core::{Error, Method, Motion, Robot, RobotKind, Solution, TensionSolver, WarmStart};
 
 use crate::robot::{CABLES, DOF};
-use crate::trajectory::Setpoint;
+use crate::setpoint::Setpoint;
 use crate::TickCounter;
 
 /// Wrench matrix `W` (6 x `M`, by default the firmware's 8 cables).

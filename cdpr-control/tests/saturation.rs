@@ -3,7 +3,7 @@
 //! exactly when that cable's torque was limited to `torque_max`.
 
 use cdpr_control::controller::{Controller, Wrench};
-use cdpr_control::trajectory::{Pose6, Setpoint};
+use cdpr_control::setpoint::{Pose6, Setpoint};
 use cdpr_control::NoClock;
 use robot_file::RobotFile;
 use tension_core::Method;

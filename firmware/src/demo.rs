@@ -2,7 +2,7 @@
 //! the same control loop as the product, fed by a scripted trajectory
 //! instead of the serial link, timed, and judged.
 //!
-//! * Setpoints: [`cdpr_control::trajectory`], one closed loop of 4000
+//! * Setpoints: [`cdpr_demo::trajectory`], one closed loop of 4000
 //!   cycles that crosses the workspace of suspended-8 and leaves it once
 //!   (near the top). They enter the loop as protocol messages, through the
 //!   same checks as received frames.
@@ -23,10 +23,9 @@
 
 use cdpr_control::controller::{Controller, Wrench};
 use cdpr_control::protocol::{HostMessage, State};
-use cdpr_control::robot::suspended8;
 use cdpr_control::stats::{Running, Samples, Summary};
-use cdpr_control::trajectory::{self, Setpoint};
-use cdpr_control::{ControlLoop, StepReport, TickCounter};
+use cdpr_control::{ControlLoop, Setpoint, StepReport, TickCounter};
+use cdpr_demo::trajectory;
 use rtic_monotonics::fugit::ExtU32;
 use rtic_monotonics::Timebase;
 use tension_core::{Error, Method, WarmStart};
@@ -123,7 +122,8 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
     let units = board::ticks_to_units;
     let mut flags = 0;
     defmt::println!(
-        "suspended-8 cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str})",
+        "{=str} cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str})",
+        crate::robot::NAME,
         board::SYSCLK_HZ / 1_000_000,
         board::TARGET,
     );
@@ -456,7 +456,7 @@ fn summary_line(method: &str, note: &str, s: &Summary) {
 }
 
 fn controller(method: Method) -> Controller {
-    match suspended8().and_then(|robot| Controller::new(robot, method)) {
+    match crate::robot::robot().and_then(|robot| Controller::new(robot, method)) {
         Ok(c) => c,
         Err(e) => panic!("robot description rejected: {}", e.status()),
     }

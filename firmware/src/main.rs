@@ -14,7 +14,7 @@
 //! * default: the product. Setpoints come over the serial link
 //!   (`cdpr-protocol`), telemetry goes back; it runs until reset.
 //! * `--features demo` (`cargo xtask run`): the setpoints come from a
-//!   scripted trajectory ([`cdpr_control::trajectory`]) and a scripted
+//!   scripted trajectory ([`cdpr_demo::trajectory`]) and a scripted
 //!   operator; after [`demo::CYCLES`] cycles the run prints its statistics,
 //!   replays the poses through other methods for comparison and exits
 //!   through semihosting with a verdict (see [`demo`]).
@@ -29,6 +29,7 @@ mod board;
 #[cfg(feature = "demo")]
 mod demo;
 mod mono;
+mod robot;
 mod serial;
 #[cfg(not(feature = "demo"))]
 mod serve;
@@ -45,7 +46,6 @@ pub const EXIT_HARDFAULT: i32 = 102;
 
 #[rtic::app(device = stm32f4::stm32f405, dispatchers = [SPI1, SPI2, SPI3])]
 mod app {
-    use cdpr_control::robot::{suspended8, SETPOINT_RANGE};
     use cdpr_control::supervisor::SafetyLimits;
     use cdpr_control::ControlLoop;
     use heapless::spsc::{Consumer, Producer, Queue};
@@ -88,8 +88,9 @@ mod app {
         let (tx, tx_out) = cx.local.tx_queue.split();
         serial::init(dp.USART1, &dp.RCC);
 
-        let control = match suspended8().and_then(|robot| {
-            ControlLoop::new(robot, Method::Barycenter, SETPOINT_RANGE, SafetyLimits::DEFAULT)
+        let control = match crate::robot::robot().and_then(|robot| {
+            let range = crate::robot::setpoint_range(&robot);
+            ControlLoop::new(robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
         }) {
             Ok(c) => c,
             Err(e) => panic!("robot description rejected: {}", e.status()),

@@ -22,7 +22,8 @@ pub async fn run(
     wake_transmitter: impl Fn(),
 ) -> ! {
     defmt::println!(
-        "suspended-8 cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str}); serial link on USART1, disabled until Enable",
+        "{=str} cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str}); serial link on USART1, disabled until Enable",
+        crate::robot::NAME,
         board::SYSCLK_HZ / 1_000_000,
         board::TARGET,
     );

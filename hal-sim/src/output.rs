@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 
 use cdpr::plot::{draw_line_plot, render_png, LinePlot, Series, PALETTE};
 use cdpr_control::protocol::State;
-use cdpr_control::robot::{T_MAX, T_MIN};
 use cdpr_control::CABLES;
 
 use crate::scenario::{Outcome, Row};
@@ -92,6 +91,10 @@ fn not_enabled(rows: &[Row]) -> Vec<(f64, f64)> {
 /// per axis) and the true tensions (N) with the limits; grey-red bands
 /// where the state is not Enabled.
 pub fn plots(outcome: &Outcome) -> [LinePlot; 3] {
+    // The robot file's (uniform) tension limits, drawn as lines.
+    let limits: Vec<(f64, &str)> = crate::scenario::load_robot()
+        .map(|r| vec![(r.limits().min()[0], "t_min"), (r.limits().max()[0], "t_max")])
+        .unwrap_or_default();
     let rows = &outcome.rows;
     let bands = not_enabled(rows);
     let band_label = "not enabled".to_string();
@@ -136,7 +139,7 @@ pub fn plots(outcome: &Outcome) -> [LinePlot; 3] {
                 )
             })
             .collect(),
-        hlines: vec![(f64::from(T_MIN), "t_min".into()), (f64::from(T_MAX), "t_max".into())],
+        hlines: limits.iter().map(|&(t, name)| (t, name.into())).collect(),
         bands,
         band_label,
         include_zero: true,

@@ -30,7 +30,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use cdpr_control::trajectory;
+use cdpr_demo::trajectory;
 use cdpr_protocol::{
     encode, DeviceMessage, FrameDecoder, HostMessage, Reason, Setpoint, State, Telemetry, MAX_FRAME,
 };
