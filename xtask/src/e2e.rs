@@ -1,4 +1,4 @@
-//! The end-to-end test: the product firmware (default features) in QEMU,
+//! The end-to-end test: the product program (`firmware`) in QEMU,
 //! its USART1 on a TCP socket this program listens on, driven like a host
 //! would drive the board.
 //!
@@ -37,8 +37,6 @@ use cdpr_protocol::{
 use tension_core::nalgebra::SVector;
 use tension_core::{Method, Robot, TensionSolver};
 
-/// The product firmware's ELF (built by `firmware::build_product`).
-pub const ELF: &str = "target/thumbv7em-none-eabihf/release/firmware";
 /// The robot the firmware's constants describe.
 const ROBOT_FILE: &str = "robots/suspended-8.toml";
 
@@ -86,11 +84,10 @@ impl Session {
     fn start() -> Result<Self, String> {
         let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| format!("cannot listen: {e}"))?;
         let port = listener.local_addr().map_err(|e| e.to_string())?.port();
-        let mut qemu = Command::new("qemu-run")
-            .args(["--machine", "netduinoplus2", "--cpu", "cortex-m4"])
-            .args(["--arg", "icount=shift=3,align=off,sleep=on"])
+        let mut qemu = Command::new(crate::firmware::QEMU_RUN)
+            .args(crate::firmware::qemu_args(true))
             .args(["--arg", &format!("serial=tcp:127.0.0.1:{port}")])
-            .arg(ELF)
+            .arg(crate::firmware::elf(crate::firmware::PRODUCT))
             .stdout(Stdio::piped())
             .process_group(0)
             .spawn()
