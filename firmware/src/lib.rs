@@ -131,6 +131,9 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 
 /// Stops the motors, logs the faulting address and exits with
 /// [`cdpr_demo::exit::HARDFAULT`].
+///
+/// `unsafe fn` because cortex-m-rt requires it of a HardFault handler; the
+/// runtime calls it only on a HardFault, with the stacked frame.
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     drives::emergency_stop();
