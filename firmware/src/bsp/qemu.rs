@@ -20,7 +20,7 @@ pub const TIMER_HZ: u64 = 1_000_000_000;
 pub const APB2_HZ: u32 = 84_000_000;
 
 /// Where this build runs.
-pub const TARGET: &str = "QEMU netduinoplus2, -icount shift=3: 1 instruction = 8 ns";
+pub const TARGET: &str = "QEMU netduinoplus2 under -icount: instructions counted exactly";
 
 /// What one converted tick unit is: instructions (exact, from the icount
 /// relation).
