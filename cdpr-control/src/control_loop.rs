@@ -16,9 +16,9 @@ use tension_core::{Error, Method};
 use crate::controller::{Controller, Cycle, Wrench};
 use crate::drives::WinchDrives;
 use crate::link::{Event, Link, SetpointRange};
-use crate::robot::Suspended8;
+use crate::robot::ControlRobot;
+use crate::setpoint::Setpoint;
 use crate::supervisor::{Requests, SafetyLimits, SetpointStatus, Supervisor};
-use crate::trajectory::Setpoint;
 use crate::{TickCounter, CABLES};
 
 /// Telemetry period at start-up, cycles.
@@ -73,7 +73,7 @@ impl ControlLoop {
     /// A loop for `robot` with `method`, accepting setpoints within `range`,
     /// with the supervisor's `limits`. Starts Disabled.
     pub fn new(
-        robot: Suspended8,
+        robot: ControlRobot,
         method: Method,
         range: SetpointRange,
         limits: SafetyLimits,

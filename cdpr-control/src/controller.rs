@@ -4,26 +4,52 @@
 //! ([`FrictionCompensation`]).
 
 use tension_core::nalgebra::{SMatrix, SVector};
-use tension_core::{Error, Method, Motion, RobotKind, Solution, TensionSolver, WarmStart};
+use tension_core::{Error, Method, Motion, Robot, RobotKind, Solution, TensionSolver, WarmStart};
 
-use crate::robot::{Suspended8, CABLES, DOF};
-use crate::trajectory::Setpoint;
+use crate::robot::{CABLES, DOF};
+use crate::setpoint::Setpoint;
 use crate::TickCounter;
 
-/// Wrench matrix `W` (6 x 8).
-pub type WrenchMatrix = SMatrix<f32, DOF, CABLES>;
+/// Wrench matrix `W` (6 x `M`, by default the firmware's 8 cables).
+pub type WrenchMatrix<const M: usize = CABLES> = SMatrix<f32, DOF, M>;
 /// Wrench `f` the cables must produce (`W t = f`).
 pub type Wrench = SVector<f32, DOF>;
 
-/// The result of a successful cycle.
+/// Which cables' torques were limited to `torque_max`, one flag per cable
+/// (sized by the robot, so any number of cables fits).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Saturation<const M: usize = CABLES>(pub [bool; M]);
+
+impl<const M: usize> Saturation<M> {
+    /// No cable saturated.
+    pub const NONE: Self = Self([false; M]);
+
+    /// Whether any cable's torque was limited.
+    pub fn any(&self) -> bool {
+        self.0.iter().any(|&s| s)
+    }
+
+    /// Whether cable `i`'s torque was limited (`false` past the last cable).
+    pub fn cable(&self, i: usize) -> bool {
+        self.0.get(i).copied().unwrap_or(false)
+    }
+
+    /// How many cables' torques were limited.
+    pub fn count(&self) -> usize {
+        self.0.iter().filter(|&&s| s).count()
+    }
+}
+
+/// The result of a successful cycle (for `M` cables, by default the
+/// firmware's 8).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Command {
+pub struct Command<const M: usize = CABLES> {
     /// Cable tensions, N.
-    pub tensions: [f32; CABLES],
+    pub tensions: [f32; M],
     /// Motor torques, N m (within `+-torque_max`).
-    pub torques: [f32; CABLES],
-    /// Bit `i` set when cable `i`'s torque was limited to `torque_max`.
-    pub saturated: u8,
+    pub torques: [f32; M],
+    /// The cables whose torque was limited to `torque_max`.
+    pub saturated: Saturation<M>,
     /// Smallest distance of a tension to its limits, N.
     pub robustness: f32,
     /// Vertices of the feasible polygon (barycenter methods).
@@ -46,9 +72,9 @@ pub struct PhaseTicks {
 
 /// One cycle's outcome and what each phase cost.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Cycle {
+pub struct Cycle<const M: usize = CABLES> {
     /// The command, or why there is none.
-    pub result: Result<Command, Error>,
+    pub result: Result<Command<M>, Error>,
     /// Cost of each phase.
     pub ticks: PhaseTicks,
 }
@@ -70,17 +96,18 @@ pub struct FrictionCompensation {
     pub viscous: f32,
 }
 
-/// The controller: the robot and a warm-started tension solver. What
-/// reaches the winches is the [`crate::supervisor`]'s decision.
-pub struct Controller {
-    robot: Suspended8,
-    solver: TensionSolver<f32, CABLES>,
+/// The controller: the robot (6 DOF, `M` cables, by default the firmware's
+/// 8) and a warm-started tension solver. What reaches the winches is the
+/// [`crate::supervisor`]'s decision.
+pub struct Controller<const M: usize = CABLES> {
+    robot: Robot<f32, DOF, M>,
+    solver: TensionSolver<f32, M>,
     friction: Option<FrictionCompensation>,
 }
 
-impl Controller {
-    /// A controller for `robot` (6 DOF, 8 cables, with a winch) using `method`.
-    pub fn new(robot: Suspended8, method: Method) -> Result<Self, Error> {
+impl<const M: usize> Controller<M> {
+    /// A controller for `robot` (6 DOF, `M` cables, with a winch) using `method`.
+    pub fn new(robot: Robot<f32, DOF, M>, method: Method) -> Result<Self, Error> {
         if robot.winch().is_none() {
             return Err(Error::UnsupportedShape);
         }
@@ -100,8 +127,8 @@ impl Controller {
 
     /// Per cable, the tension-equivalent friction force `tau_f G / r`, N,
     /// at the setpoint's motion (zero without compensation).
-    fn friction_forces(&self, setpoint: &Setpoint, w: &WrenchMatrix) -> Result<[f32; CABLES], Error> {
-        let mut out = [0.0; CABLES];
+    fn friction_forces(&self, setpoint: &Setpoint, w: &WrenchMatrix<M>) -> Result<[f32; M], Error> {
+        let mut out = [0.0; M];
         let (Some(fr), Some(winch)) = (self.friction, self.robot.winch()) else {
             return Ok(out);
         };
@@ -143,9 +170,9 @@ impl Controller {
     }
 
     /// Switches to `method` with no warm start;
-    /// [`Error::UnsupportedShape`] if it does not apply to 6 DOF x 8 cables.
+    /// [`Error::UnsupportedShape`] if it does not apply to 6 DOF x `M` cables.
     pub fn set_method(&mut self, method: Method) -> Result<(), Error> {
-        if !method.supports(DOF, CABLES) {
+        if !method.supports(DOF, M) {
             return Err(Error::UnsupportedShape);
         }
         self.solver = TensionSolver::new(method);
@@ -153,7 +180,7 @@ impl Controller {
     }
 
     /// The robot.
-    pub fn robot(&self) -> &Suspended8 {
+    pub fn robot(&self) -> &Robot<f32, DOF, M> {
         &self.robot
     }
 
@@ -162,38 +189,32 @@ impl Controller {
     /// from the setpoint's velocity and acceleration, and `extra` (e.g. a
     /// feedback wrench from a pose controller, base frame, about the
     /// platform origin; zero for pure feed-forward).
-    pub fn wrench(&self, setpoint: &Setpoint, extra: &Wrench) -> Result<(WrenchMatrix, Wrench), Error> {
+    pub fn wrench(&self, setpoint: &Setpoint, extra: &Wrench) -> Result<(WrenchMatrix<M>, Wrench), Error> {
         self.robot.wrench_problem(&setpoint.pose, extra, Some((&setpoint.velocity, &setpoint.acceleration)))
     }
 
     /// The tension distribution (warm-started from the previous success).
-    pub fn solve(&mut self, w: &WrenchMatrix, f: &Wrench) -> Result<Solution<f32, CABLES>, Error> {
+    pub fn solve(&mut self, w: &WrenchMatrix<M>, f: &Wrench) -> Result<Solution<f32, M>, Error> {
         self.solver.solve(w, f, self.robot.limits())
     }
 
     /// Motor torques for a tension solution (no friction compensation).
-    pub fn command(&self, solution: &Solution<f32, CABLES>) -> Result<Command, Error> {
-        self.command_with(solution, &[0.0; CABLES])
+    pub fn command(&self, solution: &Solution<f32, M>) -> Result<Command<M>, Error> {
+        self.command_with(solution, &[0.0; M])
     }
 
     /// Motor torques for a tension solution, each cable's tension lowered
     /// by `friction` (N) before the conversion.
-    fn command_with(
-        &self,
-        solution: &Solution<f32, CABLES>,
-        friction: &[f32; CABLES],
-    ) -> Result<Command, Error> {
+    fn command_with(&self, solution: &Solution<f32, M>, friction: &[f32; M]) -> Result<Command<M>, Error> {
         let winch = self.robot.winch().ok_or(Error::UnsupportedShape)?;
-        let mut torques = [0.0; CABLES];
-        let mut saturated = 0u8;
+        let mut torques = [0.0; M];
+        let mut saturated = Saturation::NONE;
         for (i, torque) in torques.iter_mut().enumerate() {
             let m = winch.motor_torque(solution.tensions[i] - friction[i])?;
             *torque = m.torque;
-            if m.saturated {
-                saturated |= 1 << i;
-            }
+            saturated.0[i] = m.saturated;
         }
-        let mut tensions = [0.0; CABLES];
+        let mut tensions = [0.0; M];
         tensions.copy_from_slice(solution.tensions.as_slice());
         Ok(Command {
             tensions,
@@ -206,7 +227,7 @@ impl Controller {
     }
 
     /// One whole cycle; `clock` times each phase.
-    pub fn step<C: TickCounter>(&mut self, setpoint: &Setpoint, extra: &Wrench, clock: &C) -> Cycle {
+    pub fn step<C: TickCounter>(&mut self, setpoint: &Setpoint, extra: &Wrench, clock: &C) -> Cycle<M> {
         let mut ticks = PhaseTicks::default();
         let result = self.run(setpoint, extra, clock, &mut ticks);
         Cycle { result, ticks }
@@ -218,7 +239,7 @@ impl Controller {
         extra: &Wrench,
         clock: &C,
         ticks: &mut PhaseTicks,
-    ) -> Result<Command, Error> {
+    ) -> Result<Command<M>, Error> {
         let t0 = clock.ticks();
         let problem = self.wrench(setpoint, extra);
         let t2 = clock.ticks();

@@ -47,8 +47,8 @@ use tension_core::nalgebra::{Matrix3, Vector3};
 use tension_core::{Error, Motion, RobotKind};
 
 use crate::controller::Wrench;
-use crate::robot::{Suspended8, CABLES};
-use crate::trajectory::{Pose6, Setpoint};
+use crate::robot::{ControlRobot, CABLES};
+use crate::setpoint::{Pose6, Setpoint};
 
 /// Per-axis gains of the task-space PID: `[x, y, z]` for the force (N/m,
 /// N s/m, N/(m s)), `[rx, ry, rz]` for the moment (N m/rad, N m s/rad,
@@ -104,7 +104,7 @@ pub struct Measured {
 /// The pose error `[e_p; e_r]` of `measured` from `desired` (base frame, m
 /// and rad): position difference and the rotation vector taking the
 /// measured orientation to the desired one (`sin(angle) axis`).
-pub fn pose_error(robot: &Suspended8, desired: &Pose6, measured: &Pose6) -> Result<[f32; 6], Error> {
+pub fn pose_error(robot: &ControlRobot, desired: &Pose6, measured: &Pose6) -> Result<[f32; 6], Error> {
     let (pd, rd) = robot.frame(desired)?;
     let (p, r) = robot.frame(measured)?;
     let ep = pd - p;
@@ -172,7 +172,7 @@ impl TaskPid {
     /// wrench the cables must balance).
     pub fn update(
         &mut self,
-        robot: &Suspended8,
+        robot: &ControlRobot,
         setpoint: &Setpoint,
         measured: &Measured,
         dt: f32,
@@ -226,7 +226,7 @@ pub fn extrapolate(setpoint: &Setpoint, dt: f32) -> Setpoint {
 /// from the winch encoders, the commanded ones from the inverse kinematics
 /// of `pose`.
 pub fn length_errors(
-    robot: &Suspended8,
+    robot: &ControlRobot,
     pose: &Pose6,
     lengths: &[f32; CABLES],
 ) -> Result<[f32; CABLES], Error> {

@@ -13,8 +13,10 @@
 //!   `step`'s `extra`) and the cable-length check behind
 //!   [`ControlLoop::check_lengths`];
 //! * [`drives`]: the winch output trait, with an embedded-hal 1.0 PWM adapter;
-//! * [`robot`], [`trajectory`], [`stats`]: the firmware's robot, its demo
-//!   trajectory and allocation-free cost statistics.
+//! * [`setpoint`]: the setpoint the controller acts on;
+//! * [`robot`]: the robot shape the loop runs (6 DOF, 8 cables; the robot
+//!   itself comes from a robot file);
+//! * [`stats`]: allocation-free cost statistics.
 //!
 //! The hardware this needs is behind two small traits: [`TickCounter`] (a
 //! free-running counter to time code) and [`drives::WinchDrives`].
@@ -29,14 +31,15 @@ pub mod drives;
 pub mod feedback;
 pub mod link;
 pub mod robot;
+pub mod setpoint;
 pub mod stats;
 pub mod supervisor;
-pub mod trajectory;
 
 pub use cdpr_protocol as protocol;
 pub use control_loop::{ControlLoop, StepReport};
 pub use drives::WinchDrives;
-pub use robot::{CABLES, DOF};
+pub use robot::{ControlRobot, CABLES, DOF};
+pub use setpoint::Setpoint;
 
 /// A free-running counter (wrapping, 32 bits) used to time code.
 pub trait TickCounter {

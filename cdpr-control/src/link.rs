@@ -16,8 +16,9 @@
 //! robot is disabled, so a host may renumber from 1 after a disable.
 
 use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage};
+use tension_core::Robot;
 
-use crate::trajectory::Setpoint;
+use crate::setpoint::Setpoint;
 
 /// Limits on a setpoint's values (base frame; conventions "Poses").
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,6 +40,34 @@ pub struct SetpointRange {
 }
 
 impl SetpointRange {
+    /// How far a position may lie outside the box of [`SetpointRange::for_robot`], m.
+    pub const MARGIN: f32 = 0.5;
+
+    /// The range for `robot`: positions within the box spanned by the
+    /// anchors and the base frame's origin (the floor under a suspended
+    /// robot), widened by [`SetpointRange::MARGIN`]; Euler angles within
+    /// 1 rad; speeds and accelerations a winch of the firmware's size can
+    /// follow (5 m/s, 10 rad/s, 50 m/s^2, 100 rad/s^2).
+    pub fn for_robot<const N: usize, const M: usize>(robot: &Robot<f32, N, M>) -> Self {
+        let mut position_min = [0.0f32; 3];
+        let mut position_max = [0.0f32; 3];
+        for anchor in robot.anchors() {
+            for (k, &a) in anchor.iter().enumerate() {
+                position_min[k] = position_min[k].min(a);
+                position_max[k] = position_max[k].max(a);
+            }
+        }
+        Self {
+            position_min: position_min.map(|p| p - Self::MARGIN),
+            position_max: position_max.map(|p| p + Self::MARGIN),
+            angle_max: 1.0,
+            speed_max: 5.0,
+            angular_speed_max: 10.0,
+            acceleration_max: 50.0,
+            angular_acceleration_max: 100.0,
+        }
+    }
+
     /// Whether every value is finite and within range.
     pub fn contains(&self, s: &cdpr_protocol::Setpoint) -> bool {
         let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;

@@ -1,12 +1,13 @@
 //! The feedback module and the cable-length supervision through the
 //! control loop.
 
+mod common;
+
 use cdpr_control::controller::Wrench;
 use cdpr_control::feedback::{extrapolate, length_errors, pose_error};
 use cdpr_control::protocol::{HostMessage, Reason, Setpoint, State};
-use cdpr_control::robot::{suspended8, SETPOINT_RANGE};
+use cdpr_control::setpoint::Pose6;
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::trajectory::Pose6;
 use cdpr_control::{ControlLoop, NoClock, CABLES};
 use tension_core::Method;
 
@@ -26,7 +27,7 @@ const POSE: [f32; 6] = [0.1, -0.2, 1.9, 0.02, -0.01, 0.05];
 
 #[test]
 fn pose_error_is_the_difference_for_small_errors() {
-    let robot = suspended8().unwrap();
+    let robot = common::suspended8();
     let desired = Pose6::from(POSE);
     let mut measured = desired;
     measured[0] -= 0.003;
@@ -39,7 +40,12 @@ fn pose_error_is_the_difference_for_small_errors() {
 
 #[test]
 fn extrapolation_is_constant_acceleration() {
-    let s = cdpr_control::trajectory::setpoint_at(0.3);
+    let s = cdpr_control::Setpoint {
+        seq: 1,
+        pose: Pose6::from(POSE),
+        velocity: Pose6::from([0.3, -0.2, 0.1, 0.05, -0.04, 0.2]),
+        acceleration: Pose6::from([-1.2, 0.8, 2.0, -0.3, 0.1, 0.5]),
+    };
     let e = extrapolate(&s, 0.01);
     for k in 0..6 {
         let p = s.pose[k] + s.velocity[k] * 0.01 + 0.5 * s.acceleration[k] * 1e-4;
@@ -50,12 +56,12 @@ fn extrapolation_is_constant_acceleration() {
 
 #[test]
 fn lengths_off_the_setpoint_fault_only_when_enabled() {
-    let robot = suspended8().unwrap();
+    let robot = common::suspended8();
     let lengths: [f32; CABLES] = robot.cables(&Pose6::from(POSE)).unwrap().lengths.into();
     assert!(length_errors(&robot, &Pose6::from(POSE), &lengths).unwrap().iter().all(|e| e.abs() < 1e-6));
 
     let mut control =
-        ControlLoop::new(robot, Method::Barycenter, SETPOINT_RANGE, SafetyLimits::DEFAULT).unwrap();
+        ControlLoop::new(robot, Method::Barycenter, common::setpoint_range(), SafetyLimits::DEFAULT).unwrap();
     let setpoint = |seq| Setpoint { seq, pose: POSE, velocity: [0.0; 6], acceleration: [0.0; 6] };
     control.receive(HostMessage::Setpoint(setpoint(1)));
     control.step(&NoClock, &mut Null, &Wrench::zeros(), false);

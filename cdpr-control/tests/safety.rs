@@ -3,11 +3,12 @@
 //! `SafetyLimits::DEFAULT`: stale after 50 cycles, fault after 100 cycles of
 //! holding, 200-cycle torque ramp, fault at the 5th overrun in a row).
 
+mod common;
+
 use cdpr_control::controller::Wrench;
 use cdpr_control::drives::WinchDrives;
 use cdpr_control::link::SetpointRange;
 use cdpr_control::protocol::{encode, HostMessage, Reason, Setpoint, State, MAX_FRAME};
-use cdpr_control::robot::{suspended8, SETPOINT_RANGE, TORQUE_MAX};
 use cdpr_control::supervisor::SafetyLimits;
 use cdpr_control::{ControlLoop, NoClock, StepReport, CABLES};
 use proptest::prelude::*;
@@ -67,7 +68,8 @@ struct Rig {
 impl Rig {
     fn new() -> Self {
         let control =
-            ControlLoop::new(suspended8().unwrap(), Method::Barycenter, SETPOINT_RANGE, LIMITS).unwrap();
+            ControlLoop::new(common::suspended8(), Method::Barycenter, common::setpoint_range(), LIMITS)
+                .unwrap();
         Self { control, drives: Recorder::default() }
     }
 
@@ -232,7 +234,7 @@ fn a_nan_pose_is_rejected_never_used_and_holds() {
 
 #[test]
 fn out_of_range_values_are_rejected() {
-    let range: SetpointRange = SETPOINT_RANGE;
+    let range: SetpointRange = common::setpoint_range();
     let cases: [fn(&mut Setpoint); 7] = [
         |s| s.pose[0] = 9.0,
         |s| s.pose[2] = -3.0,
@@ -348,7 +350,7 @@ fn disable_ramps_down_and_enable_waits_for_the_ramp() {
     assert_eq!(r.state, State::Enabled);
     // The same pose as before the disable (solved cold then, warm now).
     for (a, b) in r.torques.iter().zip(&feasible) {
-        assert!((a - b).abs() <= 1e-5 * TORQUE_MAX, "{a} vs {b}");
+        assert!((a - b).abs() <= 1e-5 * common::torque_max(), "{a} vs {b}");
     }
 }
 
@@ -460,7 +462,7 @@ proptest! {
             }
             for _ in 0..steps {
                 let r = rig.step_overrun(overrun);
-                prop_assert!(r.torques.iter().all(|t| t.is_finite() && t.abs() <= TORQUE_MAX));
+                prop_assert!(r.torques.iter().all(|t| t.is_finite() && t.abs() <= common::torque_max()));
                 prop_assert_eq!(r.brakes, matches!(r.state, State::Disabled | State::Fault));
                 if r.state == State::Enabled {
                     prop_assert!(r.solved.is_some_and(|c| c.result.is_ok()));

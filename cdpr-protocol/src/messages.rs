@@ -90,6 +90,34 @@ pub enum Reason {
     Tracking,
 }
 
+impl State {
+    /// The state's name in logs and tables (lower case).
+    pub const fn name(self) -> &'static str {
+        match self {
+            State::Disabled => "disabled",
+            State::Enabled => "enabled",
+            State::Holding => "holding",
+            State::Fault => "fault",
+        }
+    }
+}
+
+impl Reason {
+    /// The reason's name in logs and tables (lower case, words joined by `-`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Reason::None => "none",
+            Reason::Infeasible => "infeasible",
+            Reason::BadSetpoint => "bad-setpoint",
+            Reason::Stale => "stale",
+            Reason::HoldTimeout => "hold-timeout",
+            Reason::Overruns => "overruns",
+            Reason::Output => "drive-error",
+            Reason::Tracking => "tracking",
+        }
+    }
+}
+
 /// Running counters of the link and the control loop (they wrap at `u32::MAX`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -1,8 +1,9 @@
-//! The demo and cycle-time run (`--features demo`, `cargo xtask run`):
-//! the same control loop as the product, fed by a scripted trajectory
-//! instead of the serial link, timed, and judged.
+//! The demo and cycle-time run (the `demo` program, `cargo xtask run`):
+//! the same control loop as the product, on the same periodic release,
+//! fed by a scripted trajectory instead of the serial link, timed, and
+//! judged.
 //!
-//! * Setpoints: [`cdpr_control::trajectory`], one closed loop of 4000
+//! * Setpoints: [`cdpr_demo::trajectory`], one closed loop of 4000
 //!   cycles that crosses the workspace of suspended-8 and leaves it once
 //!   (near the top). They enter the loop as protocol messages, through the
 //!   same checks as received frames.
@@ -14,57 +15,72 @@
 //! * TIM2 times every step from the setpoint to the drive writes.
 //!
 //! At the end it prints the statistics, times the barycenter's phases and
-//! replays the poses through `analytic-centre` and `barycenter-brute`, and
-//! exits through semihosting:
+//! replays the poses through the other methods, logs its results as one
+//! encoded [`Record::Finished`] and exits through semihosting:
 //!
-//! * 0: every step within [`BUDGET`] and no deadline overrun, and the
-//!   expected states and statuses;
-//! * [`EXIT_FAIL`]` | flags` (32..=63) otherwise, see [`fail`].
+//! * [`exit::PASS`]: every step within [`BUDGET`] and no deadline overrun,
+//!   and the expected states ([`cdpr_demo::EXPECTED_STATES`]) and statuses;
+//! * [`exit::FAIL`]` | flags` (32..=63) otherwise, see [`exit::fail`].
+//!
+//! The `inject-*` programs run the same demo and fault at
+//! [`cdpr_demo::INJECT_AT`] ([`Inject`]).
 
 use cdpr_control::controller::{Controller, Wrench};
-use cdpr_control::protocol::{HostMessage, Reason, State};
-use cdpr_control::robot::suspended8;
+use cdpr_control::protocol::{HostMessage, State};
 use cdpr_control::stats::{Running, Samples, Summary};
-use cdpr_control::trajectory::{self, Setpoint};
-use cdpr_control::{ControlLoop, StepReport, TickCounter};
-use rtic_monotonics::fugit::ExtU32;
-use rtic_monotonics::Timebase;
+use cdpr_control::{ControlLoop, Setpoint, StepReport, TickCounter, CABLES};
+use cdpr_demo::exit::{self, fail};
+use cdpr_demo::report::{self, Record, Report, Spread, MAX_STATES};
+use cdpr_demo::{trajectory, BUDGET, EXPECTED_STATES, INJECT_AT};
 use tension_core::{Error, Method, WarmStart};
 
-use crate::board::{self, Drives, Tim2Counter};
-use crate::mono::Mono;
+use crate::clock::{self, ticks_to_units as units, Tim2Counter};
+use crate::periodic::Releases;
+use crate::{bsp, drives, stack, Board};
 
 /// Cycles of the scripted run (one loop of the trajectory).
 pub const CYCLES: usize = trajectory::CYCLES;
 
-/// Instruction budget of one control step (QEMU; cycles on the board).
-pub const BUDGET: u32 = 20_000;
-
-/// The cycle at which the `inject-panic` / `inject-hardfault` builds fault
-/// (enabled and moving at that point).
-const INJECT_AT: u32 = 1000;
-
-/// Exit code base for a failed run; the low bits say why ([`fail`]).
-pub const EXIT_FAIL: i32 = 32;
-
-/// Failure flags, or-ed into [`EXIT_FAIL`].
-pub mod fail {
-    /// Some step took more than [`super::BUDGET`].
-    pub const BUDGET: i32 = 1;
-    /// Some step missed its deadline.
-    pub const OVERRUN: i32 = 2;
-    /// The timer calibration disagrees with the icount relation.
-    pub const CALIBRATION: i32 = 4;
-    /// The trajectory never left the workspace, or a cycle failed with
-    /// something other than `infeasible`.
-    pub const STATUS: i32 = 8;
-    /// The state machine did not go Enabled -> Holding -> Fault -> Disabled
-    /// -> Enabled as scripted.
-    pub const STATES: i32 = 16;
-}
-
 // The statistics live in fixed buffers of this many samples.
 const _: () = assert!(CYCLES >= 2000);
+
+/// A fault the `inject-*` programs provoke at [`INJECT_AT`], while the
+/// drives command torques, to check that the handlers stop them first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Inject {
+    /// `panic!`.
+    Panic,
+    /// An undefined instruction: a HardFault.
+    HardFault,
+}
+
+impl Inject {
+    /// Logs the drives' torques (readable and as a record), then faults.
+    fn fire(self, cycle: u32) -> ! {
+        let (torques, _) = drives::drive_outputs();
+        let what = match self {
+            Inject::Panic => "a panic",
+            Inject::HardFault => "a HardFault",
+        };
+        defmt::println!("injecting {=str} at cycle {=u32}; drives command {} N m", what, cycle, torques);
+        log_record(&Record::Injecting { cycle, torques });
+        match self {
+            Inject::Panic => panic!("injected at cycle {}", cycle),
+            Inject::HardFault => {
+                cortex_m::asm::udf();
+            }
+        }
+    }
+}
+
+/// Logs `record` on a line of its own, encoded (see [`cdpr_demo::report`]).
+pub fn log_record(record: &Record) {
+    let mut text = [0u8; report::MAX_TEXT];
+    match report::encode(record, &mut text) {
+        Ok(line) => defmt::println!("{=str}", line),
+        Err(_) => defmt::println!("a record did not fit its buffer"),
+    }
+}
 
 /// Counts per status of a run's cycles.
 #[derive(Default)]
@@ -99,9 +115,10 @@ struct Breakdown {
     supervisor_and_drives: Running,
 }
 
-/// The states the run went through, in order (at most 16 changes kept).
+/// The states the run went through, in order (at most [`MAX_STATES`]
+/// changes kept).
 struct Transitions {
-    states: [State; 16],
+    states: [State; MAX_STATES],
     len: usize,
 }
 
@@ -118,106 +135,153 @@ impl Transitions {
     }
 }
 
-fn state_name(s: State) -> &'static str {
-    match s {
-        State::Disabled => "disabled",
-        State::Enabled => "enabled",
-        State::Holding => "holding",
-        State::Fault => "fault",
+/// The scripted operator: re-enables once a fault's ramp is over and the
+/// setpoint is feasible again.
+struct Operator {
+    enable: bool,
+    fault_since: Option<u32>,
+    ramp_cycles: u32,
+}
+
+impl Operator {
+    /// After cycle `k`'s step: what to ask for next.
+    fn after(&mut self, k: u32, report: &StepReport, ok: bool, control: &mut ControlLoop) {
+        self.enable = false;
+        if report.state == State::Fault && self.fault_since.is_none() {
+            self.fault_since = Some(k);
+        }
+        match report.state {
+            State::Fault if ok && self.fault_since.is_some_and(|f| k >= f + self.ramp_cycles) => {
+                control.receive(HostMessage::ClearFault);
+                self.fault_since = None;
+            }
+            State::Disabled if ok => self.enable = true,
+            _ => {}
+        }
     }
 }
 
-fn reason_name(r: Reason) -> &'static str {
-    match r {
-        Reason::None => "-",
-        Reason::Infeasible => "infeasible setpoint",
-        Reason::BadSetpoint => "bad setpoint",
-        Reason::Stale => "stale setpoint stream",
-        Reason::HoldTimeout => "held too long",
-        Reason::Overruns => "deadline overruns",
-        Reason::Output => "drive error",
-        Reason::Tracking => "cable length tracking error",
-    }
+/// What the real-time loop measured.
+struct LoopResults<'a> {
+    steps: Samples<'a>,
+    solver: Samples<'a>,
+    breakdown: Breakdown,
+    outcomes: Outcomes,
+    transitions: Transitions,
+    overruns: u32,
+    first_failure: Option<u32>,
+    recovered: Option<u32>,
+    period_ticks: u64,
 }
 
-/// The scripted run; never returns (exits through semihosting).
-pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Drives, calibration: u32) -> ! {
-    let units = board::ticks_to_units;
+/// The scripted run; never returns (exits through semihosting). `inject`:
+/// the fault the `inject-*` programs provoke.
+pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
+    let mut flags = announce(board);
+    let mut results = realtime_loop(board, inject).await;
+    let step = results.steps.summary();
+    let barycenter = results.solver.summary();
+    print_loop_results(board, &results, &step, &barycenter);
+    barycenter_phases(&board.clock);
+    replay_other_methods(&board.clock, &mut results.solver);
+
+    let (torques, brakes) = drives::drive_outputs();
+    defmt::println!(
+        "drives at the end: torques N m = {}, brakes engaged {=bool}",
+        rounded::<CABLES>(&torques, 3),
+        brakes
+    );
+    let (used, size) = stack::stack_high_water();
+    defmt::println!("stack high-water mark: {=u32} of {=u32} bytes", used, size);
+
+    flags |= verdict_flags(&results, &step);
+    let code = if flags == 0 { exit::PASS } else { exit::FAIL | flags };
+    print_verdict(code, flags, step.max);
+    log_record(&Record::Finished(summarise(board, &results, &step, &barycenter, code)));
+    crate::exit(code)
+}
+
+/// The banner, the timer check (its failure flag), the libm reference
+/// costs and the loop's settings.
+fn announce(board: &Board) -> i32 {
     let mut flags = 0;
     defmt::println!(
-        "suspended-8 cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str})",
-        board::SYSCLK_HZ / 1_000_000,
-        board::TARGET,
+        "{=str} cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str})",
+        crate::robot::NAME,
+        bsp::SYSCLK_HZ / 1_000_000,
+        bsp::TARGET,
     );
-
-    // --- Timer check: the icount relation against a known loop.
-    let expected =
-        u64::from(board::CALIBRATION_INSTRUCTIONS) * (board::TIMER_HZ << board::ICOUNT_SHIFT) / 1_000_000_000;
+    let calibration = board.calibration_ticks;
+    let expected = clock::expected_calibration_ticks();
     defmt::println!(
         "timer check: a {=u32}-instruction loop took {=u32} TIM2 ticks = {=u32} {=str} (icount shift={=u32}, {=u64} Hz timer: {=u64} ticks expected)",
-        board::CALIBRATION_INSTRUCTIONS,
+        clock::CALIBRATION_INSTRUCTIONS,
         calibration,
         units(calibration),
-        board::UNIT,
-        board::ICOUNT_SHIFT,
-        board::TIMER_HZ,
+        bsp::UNIT,
+        cdpr_demo::qemu::ICOUNT_SHIFT,
+        bsp::TIMER_HZ,
         expected,
     );
-    if cfg!(not(feature = "board")) && u64::from(calibration).abs_diff(expected) * 100 > expected {
+    if bsp::EXACT_UNITS && u64::from(calibration).abs_diff(expected) * 100 > expected {
         defmt::println!("timer check FAILED: ticks do not convert to instructions as assumed");
         flags |= fail::CALIBRATION;
     }
-    cost_reference(clock);
+    cost_reference(&board.clock);
 
-    let limits = *control.supervisor().limits();
+    let limits = *board.control.supervisor().limits();
     defmt::println!(
         "control loop: barycenter (warm-started), {=u32} cycles at {=u32} Hz, budget {=u32} {=str} per step; safety: stale after {=u32} ms, fault after holding {=u32} ms, {=u32} ms torque ramp",
         CYCLES as u32,
         crate::mono::TICK_HZ,
         BUDGET,
-        board::UNIT,
+        bsp::UNIT,
         limits.stale_cycles,
         limits.hold_cycles,
         limits.ramp_cycles,
     );
+    flags
+}
 
-    // --- The real-time loop.
+/// The real-time loop over the trajectory, on the product's periodic
+/// release.
+async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults<'static> {
+    let Board { clock, drives, control, .. } = board;
     let steps_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
     let solver_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
     let (Some(steps_buf), Some(solver_buf)) = (steps_buf, solver_buf) else {
         panic!("statistics buffers taken twice");
     };
-    let mut steps = Samples::new(steps_buf);
-    let mut solver = Samples::new(solver_buf);
-    let mut breakdown = Breakdown::default();
-    let mut outcomes = Outcomes::default();
-    let mut transitions = Transitions { states: [State::Disabled; 16], len: 0 };
-    transitions.push(control.supervisor().state());
-    let mut overruns = 0u32;
+    let mut r = LoopResults {
+        steps: Samples::new(steps_buf),
+        solver: Samples::new(solver_buf),
+        breakdown: Breakdown::default(),
+        outcomes: Outcomes::default(),
+        transitions: Transitions { states: [State::Disabled; MAX_STATES], len: 0 },
+        overruns: 0,
+        first_failure: None,
+        recovered: None,
+        period_ticks: 0,
+    };
+    r.transitions.push(control.supervisor().state());
+    let ramp_cycles = control.supervisor().limits().ramp_cycles;
+    let mut operator = Operator { enable: true, fault_since: None, ramp_cycles };
     let mut overrun = false;
-    let mut first_failure: Option<u32> = None;
-    let mut recovered: Option<u32> = None;
     let mut previous_ok = true;
-    let mut period_ticks = 0u64;
-    let mut operator_enable = true;
-    let mut fault_since: Option<u32> = None;
 
-    // Start on a tick, so that the first cycle has a whole period.
-    let mut release = Mono::now() + 1.millis();
-    Mono::delay_until(release).await;
+    let mut releases = Releases::start().await;
     let mut last_start = clock.ticks();
-
     for k in 0..CYCLES as u32 {
         let start = clock.ticks();
-        board::feed_watchdog();
-        period_ticks += u64::from(start.wrapping_sub(last_start));
+        bsp::feed_watchdog();
+        r.period_ticks += u64::from(start.wrapping_sub(last_start));
         last_start = start;
 
         // The measured control step: setpoint -> checks -> solve ->
         // supervisor -> drives.
         let setpoint = trajectory::setpoint(k);
         control.receive(HostMessage::Setpoint(setpoint.to_wire()));
-        if operator_enable {
+        if operator.enable {
             control.receive(HostMessage::Enable);
         }
         let t_setpoint = clock.ticks();
@@ -226,107 +290,85 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
         let ticks = end.wrapping_sub(start);
         control.record_cost(units(ticks));
 
-        // Absolute deadlines: this cycle's ends where the next begins.
-        let deadline = release + 1.millis();
-        overrun = Mono::now() >= deadline;
-        if overrun {
-            overruns += 1;
-        }
-
-        steps.push(units(ticks));
-        breakdown.setpoint.push(units(t_setpoint.wrapping_sub(start)));
-        let mut phases = 0;
-        if let Some(cycle) = &report.solved {
-            solver.push(units(cycle.ticks.solver));
-            breakdown.kinematics.push(units(cycle.ticks.kinematics));
-            breakdown.solver.push(units(cycle.ticks.solver));
-            breakdown.torques.push(units(cycle.ticks.torques));
-            phases = cycle.ticks.kinematics + cycle.ticks.solver + cycle.ticks.torques;
-            outcomes.count(&cycle.result);
-            if let Ok(command) = &cycle.result {
-                match command.warm_start {
-                    WarmStart::Held => outcomes.warm_held += 1,
-                    WarmStart::Lost => outcomes.warm_lost += 1,
-                    WarmStart::NotGiven => {}
-                }
-                if command.saturated != 0 {
-                    outcomes.saturated += 1;
-                }
-            }
-        }
-        breakdown.supervisor_and_drives.push(units(end.wrapping_sub(t_setpoint).saturating_sub(phases)));
-
-        // Fault injection (test builds only): the handlers must stop the
-        // drives, which are commanding torques at this point.
+        r.record_step(&report, start, t_setpoint, end);
         if k == INJECT_AT {
-            let (torques, _) = board::drive_outputs();
-            #[cfg(feature = "inject-panic")]
-            {
-                defmt::println!("injecting a panic at cycle {=u32}; drives command {} N m", k, torques);
-                panic!("injected at cycle {}", k);
+            if let Some(fault) = inject {
+                fault.fire(k);
             }
-            #[cfg(feature = "inject-hardfault")]
-            {
-                defmt::println!("injecting a HardFault at cycle {=u32}; drives command {} N m", k, torques);
-                cortex_m::asm::udf();
-            }
-            #[cfg(not(any(feature = "inject-panic", feature = "inject-hardfault")))]
-            let _ = torques;
         }
-
-        // The scripted operator: re-enable once the fault's ramp is over
-        // and the setpoint is feasible again.
         let ok = report.solved.is_some_and(|c| c.result.is_ok());
-        operator_enable = false;
-        if report.state == State::Fault && fault_since.is_none() {
-            fault_since = Some(k);
-        }
-        match report.state {
-            State::Fault if ok && fault_since.is_some_and(|f| k >= f + limits.ramp_cycles) => {
-                control.receive(HostMessage::ClearFault);
-                fault_since = None;
-            }
-            State::Disabled if ok => operator_enable = true,
-            _ => {}
-        }
-
-        let changed = transitions.as_slice().last() != Some(&report.state);
-        if changed {
-            transitions.push(report.state);
-            defmt::println!(
-                "cycle {=u32}: state -> {=str} ({=str})",
-                k,
-                state_name(report.state),
-                reason_name(report.reason)
-            );
-        }
-        let transition = ok != previous_ok;
-        if !ok && first_failure.is_none() {
-            first_failure = Some(k);
-        }
-        if ok && transition && recovered.is_none() {
-            recovered = Some(k);
-        }
-        if k % 500 == 0 || transition || k == CYCLES as u32 - 1 {
+        operator.after(k, &report, ok, control);
+        r.record_state(k, &report, ok, previous_ok);
+        if k % 500 == 0 || ok != previous_ok || k == CYCLES as u32 - 1 {
             show(k, &setpoint, &report, units(ticks));
         }
         previous_ok = ok;
 
-        release = deadline;
-        Mono::delay_until(release).await;
+        overrun = releases.next().await;
+        if overrun {
+            r.overruns += 1;
+        }
     }
-    let loop_us = period_ticks * 1_000_000 / board::TIMER_HZ;
+    r
+}
 
-    // --- Results of the real-time loop.
-    let step = steps.summary();
+impl LoopResults<'_> {
+    /// The step's cost, its phases and its outcome.
+    fn record_step(&mut self, report: &StepReport, start: u32, t_setpoint: u32, end: u32) {
+        self.steps.push(units(end.wrapping_sub(start)));
+        self.breakdown.setpoint.push(units(t_setpoint.wrapping_sub(start)));
+        let mut phases = 0;
+        if let Some(cycle) = &report.solved {
+            self.solver.push(units(cycle.ticks.solver));
+            self.breakdown.kinematics.push(units(cycle.ticks.kinematics));
+            self.breakdown.solver.push(units(cycle.ticks.solver));
+            self.breakdown.torques.push(units(cycle.ticks.torques));
+            phases = cycle.ticks.kinematics + cycle.ticks.solver + cycle.ticks.torques;
+            self.outcomes.count(&cycle.result);
+            if let Ok(command) = &cycle.result {
+                match command.warm_start {
+                    WarmStart::Held => self.outcomes.warm_held += 1,
+                    WarmStart::Lost => self.outcomes.warm_lost += 1,
+                    WarmStart::NotGiven => {}
+                }
+                if command.saturated.any() {
+                    self.outcomes.saturated += 1;
+                }
+            }
+        }
+        self.breakdown.supervisor_and_drives.push(units(end.wrapping_sub(t_setpoint).saturating_sub(phases)));
+    }
+
+    /// State changes, and where the poses left and re-entered the workspace.
+    fn record_state(&mut self, k: u32, report: &StepReport, ok: bool, previous_ok: bool) {
+        if self.transitions.as_slice().last() != Some(&report.state) {
+            self.transitions.push(report.state);
+            defmt::println!(
+                "cycle {=u32}: state -> {=str} ({=str})",
+                k,
+                report.state.name(),
+                report.reason.name()
+            );
+        }
+        if !ok && self.first_failure.is_none() {
+            self.first_failure = Some(k);
+        }
+        if ok && ok != previous_ok && self.recovered.is_none() {
+            self.recovered = Some(k);
+        }
+    }
+}
+
+/// The real-time loop's statistics, readable.
+fn print_loop_results(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summary) {
     defmt::println!(
         "control-step {=str}: min {=u32} median {=u32} max {=u32} over {=u32} cycles, overruns {=u32}",
-        board::UNIT,
+        bsp::UNIT,
         step.min,
         step.median,
         step.max,
         step.count,
-        overruns,
+        r.overruns,
     );
     let share = per_mille_of_period(step.max);
     defmt::println!(
@@ -334,32 +376,34 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
         share / 10,
         share % 10
     );
-    summary_line("barycenter", "warm-started, solver only, same cycles", &solver.summary());
+    summary_line("barycenter", "warm-started, solver only, same cycles", barycenter);
+    let b = &r.breakdown;
     defmt::println!(
         "step breakdown, mean/max {=str}: setpoint and checks {=u32}/{=u32}, kinematics (W and f with motion) {=u32}/{=u32}, solver {=u32}/{=u32}, torques {=u32}/{=u32}, supervisor and drives {=u32}/{=u32}",
-        board::UNIT,
-        breakdown.setpoint.mean(),
-        breakdown.setpoint.max(),
-        breakdown.kinematics.mean(),
-        breakdown.kinematics.max(),
-        breakdown.solver.mean(),
-        breakdown.solver.max(),
-        breakdown.torques.mean(),
-        breakdown.torques.max(),
-        breakdown.supervisor_and_drives.mean(),
-        breakdown.supervisor_and_drives.max(),
+        bsp::UNIT,
+        b.setpoint.mean(),
+        b.setpoint.max(),
+        b.kinematics.mean(),
+        b.kinematics.max(),
+        b.solver.mean(),
+        b.solver.max(),
+        b.torques.mean(),
+        b.torques.max(),
+        b.supervisor_and_drives.mean(),
+        b.supervisor_and_drives.max(),
     );
+    let o = &r.outcomes;
     defmt::println!(
         "cycles: {=u32} ok, infeasible {=u32} (torques held, then fault), other errors {=u32}; warm start held {=u32}, lost {=u32}; torque-saturated {=u32}; drive writes {=u32}",
-        outcomes.ok,
-        outcomes.infeasible,
-        outcomes.no_convergence + outcomes.other,
-        outcomes.warm_held,
-        outcomes.warm_lost,
-        outcomes.saturated,
-        drives.writes(),
+        o.ok,
+        o.infeasible,
+        o.no_convergence + o.other,
+        o.warm_held,
+        o.warm_lost,
+        o.saturated,
+        board.drives.writes(),
     );
-    if let (Some(a), Some(b)) = (first_failure, recovered) {
+    if let (Some(a), Some(b)) = (r.first_failure, r.recovered) {
         defmt::println!(
             "left the wrench-feasible workspace at cycle {=u32} (t = {=u32} ms), back in at cycle {=u32} (t = {=u32} ms)",
             a,
@@ -368,10 +412,10 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
             b,
         );
     }
-    let counters = control.counters();
+    let counters = board.control.counters();
     defmt::println!(
         "states: {=[?]}; faults {=u32}, refused requests {=u32}, rejected setpoints {=u32}",
-        transitions.as_slice(),
+        r.transitions.as_slice(),
         counters.faults,
         counters.rejected_state,
         counters.rejected_range + counters.rejected_order,
@@ -379,16 +423,16 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
     defmt::println!(
         "period check: {=u32} periods took {=u64} us of TIM2 time ({=u32} us nominal)",
         CYCLES as u32,
-        loop_us,
+        r.period_ticks * 1_000_000 / bsp::TIMER_HZ,
         CYCLES as u32 * 1_000_000 / crate::mono::TICK_HZ,
     );
+}
 
-    barycenter_phases(clock);
-
-    // --- The other methods over the same poses (not real time).
+/// The other methods over the same poses (not real time).
+fn replay_other_methods(clock: &Tim2Counter, solver: &mut Samples) {
     for method in Method::ALL.into_iter().filter(|&m| m != Method::Barycenter) {
         solver.clear();
-        let counts = replay(method, clock, &mut solver);
+        let counts = replay(method, clock, solver);
         summary_line(method.name(), "solver only, same poses, replayed after the loop", &solver.summary());
         defmt::println!(
             "  {=str}: {=u32} ok, infeasible {=u32}, no-convergence {=u32}, other errors {=u32}",
@@ -399,42 +443,33 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
             counts.other,
         );
     }
+}
 
-    let (torques, brakes) = board::drive_outputs();
-    defmt::println!(
-        "drives at the end: torques N m = {}, brakes engaged {=bool}",
-        rounded::<8>(&torques, 3),
-        brakes
-    );
-    let (used, size) = board::stack_high_water();
-    defmt::println!("stack high-water mark: {=u32} of {=u32} bytes", used, size);
-
-    // --- Verdict.
+/// The failure flags of the real-time loop's results.
+fn verdict_flags(r: &LoopResults, step: &Summary) -> i32 {
+    let mut flags = 0;
     if step.max > BUDGET {
         flags |= fail::BUDGET;
     }
-    if overruns > 0 {
+    if r.overruns > 0 {
         flags |= fail::OVERRUN;
     }
-    if outcomes.infeasible == 0 || outcomes.no_convergence + outcomes.other > 0 {
+    if r.outcomes.infeasible == 0 || r.outcomes.no_convergence + r.outcomes.other > 0 {
         flags |= fail::STATUS;
     }
-    let expected_states =
-        [State::Disabled, State::Enabled, State::Holding, State::Fault, State::Disabled, State::Enabled];
-    if transitions.as_slice() != expected_states {
+    if r.transitions.as_slice() != EXPECTED_STATES {
         flags |= fail::STATES;
     }
-    let code = if flags == 0 { 0 } else { EXIT_FAIL | flags };
-    if code == 0 {
-        defmt::println!(
-            "PASS: max {=u32} <= {=u32} {=str} per step, 0 overruns",
-            step.max,
-            BUDGET,
-            board::UNIT
-        );
+    flags
+}
+
+/// The verdict, readable.
+fn print_verdict(code: i32, flags: i32, max: u32) {
+    if code == exit::PASS {
+        defmt::println!("PASS: max {=u32} <= {=u32} {=str} per step, 0 overruns", max, BUDGET, bsp::UNIT);
     } else {
         defmt::println!(
-            "FAIL (exit code {=i32}): over budget {=bool}, overruns {=bool}, timer check failed {=bool}, unexpected statuses {=bool}, unexpected states {=bool}",
+            "FAIL (exit code {=i32}): over budget {=bool}, overruns {=bool}, timer check failed {=bool}, unexpected statuses {=bool}, unexpected state sequence {=bool}",
             code,
             flags & fail::BUDGET != 0,
             flags & fail::OVERRUN != 0,
@@ -443,7 +478,30 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
             flags & fail::STATES != 0,
         );
     }
-    board::exit(code)
+}
+
+/// The report `cargo xtask` decodes.
+fn summarise(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summary, exit_code: i32) -> Report {
+    let spread = |s: &Summary| Spread { min: s.min, median: s.median, max: s.max };
+    let (stack_used, stack_size) = stack::stack_high_water();
+    Report {
+        instructions: bsp::EXACT_UNITS,
+        cycles: step.count,
+        step: spread(step),
+        solver: spread(barycenter),
+        overruns: r.overruns,
+        calibration_ticks: board.calibration_ticks,
+        calibration_expected: clock::expected_calibration_ticks() as u32,
+        calibration_exact: bsp::EXACT_UNITS,
+        ok: r.outcomes.ok,
+        infeasible: r.outcomes.infeasible,
+        other_errors: r.outcomes.no_convergence + r.outcomes.other,
+        states: r.transitions.states,
+        state_count: r.transitions.len as u8,
+        stack_used,
+        stack_size,
+        exit_code,
+    }
 }
 
 /// Cycles per instruction assumed to turn QEMU's instruction counts into a
@@ -453,11 +511,11 @@ pub async fn run(control: &mut ControlLoop, clock: &Tim2Counter, drives: &mut Dr
 /// 1.5 is a deliberately pessimistic average.
 pub const ASSUMED_CPI: (u32, u32) = (3, 2);
 
-/// Per mille of the 1 ms period at [`board::SYSCLK_HZ`] that `instructions`
+/// Per mille of the 1 ms period at [`bsp::SYSCLK_HZ`] that `instructions`
 /// take at [`ASSUMED_CPI`].
 fn per_mille_of_period(instructions: u32) -> u32 {
     let cycles = u64::from(instructions) * u64::from(ASSUMED_CPI.0) / u64::from(ASSUMED_CPI.1);
-    (cycles * 1000 * 1000 / u64::from(board::SYSCLK_HZ)) as u32
+    (cycles * 1000 * 1000 / u64::from(bsp::SYSCLK_HZ)) as u32
 }
 
 /// One `<method> solver instructions: ...` line.
@@ -466,7 +524,7 @@ fn summary_line(method: &str, note: &str, s: &Summary) {
     defmt::println!(
         "{=str} solver {=str}: min {=u32} median {=u32} max {=u32} over {=u32} cycles ({=str}); worst = {=u32}.{=u32} % of the 1 ms period at 168 MHz and 1.5 cycles per instruction",
         method,
-        board::UNIT,
+        bsp::UNIT,
         s.min,
         s.median,
         s.max,
@@ -478,7 +536,7 @@ fn summary_line(method: &str, note: &str, s: &Summary) {
 }
 
 fn controller(method: Method) -> Controller {
-    match suspended8().and_then(|robot| Controller::new(robot, method)) {
+    match crate::robot::robot().and_then(|robot| Controller::new(robot, method)) {
         Ok(c) => c,
         Err(e) => panic!("robot description rejected: {}", e.status()),
     }
@@ -501,7 +559,7 @@ fn barycenter_phases(clock: &Tim2Counter) {
             // Filled in place, as `TensionSolver::solve` does.
             let t0 = clock.ticks();
             let mut fact = WrenchFactorization::zeroed();
-            let Ok(()) = fact.factor(&w, &[true; 8], 2) else { continue };
+            let Ok(()) = fact.factor(&w, &[true; CABLES], 2) else { continue };
             let t1 = clock.ticks();
             let mut poly = TensionPolygon::zeroed();
             let Ok(()) = poly.set(&fact, &f, &limits) else { continue };
@@ -511,15 +569,15 @@ fn barycenter_phases(clock: &Tim2Counter) {
             let t3 = clock.ticks();
             if let Ok(found) = found {
                 pair = Some(found.robust_pair);
-                fact_t.push(board::ticks_to_units(t1.wrapping_sub(t0)));
-                poly_t.push(board::ticks_to_units(t2.wrapping_sub(t1)));
-                walk_t.push(board::ticks_to_units(t3.wrapping_sub(t2)));
+                fact_t.push(units(t1.wrapping_sub(t0)));
+                poly_t.push(units(t2.wrapping_sub(t1)));
+                walk_t.push(units(t3.wrapping_sub(t2)));
             }
         }
     });
     defmt::println!(
         "barycenter phases, mean/max {=str}: factorisation {=u32}/{=u32}, polygon {=u32}/{=u32}, walk and centroid {=u32}/{=u32}",
-        board::UNIT,
+        bsp::UNIT,
         fact_t.mean(),
         fact_t.max(),
         poly_t.mean(),
@@ -547,7 +605,7 @@ fn replay(method: Method, clock: &Tim2Counter, samples: &mut Samples) -> Outcome
             let result = controller.solve(&w, &f);
             (clock.since(start), result)
         });
-        samples.push(board::ticks_to_units(ticks));
+        samples.push(units(ticks));
         counts.count(&result);
     }
     counts
@@ -560,7 +618,7 @@ fn cost_reference(clock: &Tim2Counter) {
         cortex_m::interrupt::free(|_| {
             let start = clock.ticks();
             black_box(f());
-            board::ticks_to_units(clock.since(start))
+            units(clock.since(start))
         })
     };
     let empty = time(&|| black_box(0.5));
@@ -569,7 +627,7 @@ fn cost_reference(clock: &Tim2Counter) {
     let sqrt = time(&|| libm::sqrtf(black_box(0.5)));
     defmt::println!(
         "cost reference, {=str} per call: libm sinf {=u32}, cosf {=u32} (both compute in f64, soft-float on the M4F), sqrtf {=u32}",
-        board::UNIT,
+        bsp::UNIT,
         sin.saturating_sub(empty),
         cos.saturating_sub(empty),
         sqrt.saturating_sub(empty),
@@ -593,14 +651,14 @@ fn show(k: u32, setpoint: &Setpoint, report: &StepReport, cost: u32) {
         k,
         k,
         cost,
-        board::UNIT,
-        state_name(report.state),
+        bsp::UNIT,
+        report.state.name(),
         pose,
     );
-    let torques: [f32; 8] = rounded(&report.torques, 3);
+    let torques: [f32; CABLES] = rounded(&report.torques, 3);
     match report.solved.map(|c| c.result) {
         Some(Ok(c)) => {
-            let tensions: [f32; 8] = rounded(&c.tensions, 1);
+            let tensions: [f32; CABLES] = rounded(&c.tensions, 1);
             defmt::println!("  tensions N   = {}", tensions);
             defmt::println!(
                 "  torques N m  = {} (robustness {=f32} N, {=u8} polygon vertices, warm start {=str})",

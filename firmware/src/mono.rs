@@ -78,12 +78,15 @@ impl TimerQueueBackend for Tim5Backend {
     }
 }
 
+/// An instant of [`Mono`].
+pub type Instant = fugit::MonotonicTimerInstantU32<{ TICK_HZ as u64 }>;
+
 /// The monotonic the app's tasks use (`Mono::now()`, `Mono::delay_until()`).
 pub struct Mono;
 
 impl TimerQueueBasedMonotonic for Mono {
     type Backend = Tim5Backend;
-    type Instant = fugit::MonotonicTimerInstantU32<{ TICK_HZ as u64 }>;
+    type Instant = Instant;
     type Duration = fugit::TimerDurationU32<{ TICK_HZ as u64 }>;
 }
 

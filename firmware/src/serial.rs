@@ -14,6 +14,8 @@
 use heapless::spsc::{Consumer, Producer};
 use stm32f4::stm32f405::{usart1::RegisterBlock, RCC, USART1};
 
+use crate::bsp;
+
 /// Received bytes waiting for the control task.
 pub const RX_QUEUE: usize = 1024;
 /// Telemetry bytes waiting for the line.
@@ -35,24 +37,13 @@ fn usart() -> &'static RegisterBlock {
 pub fn init(usart1: USART1, rcc: &RCC) {
     rcc.apb2enr().modify(|_, w| w.usart1en().set_bit());
     let _ = rcc.apb2enr().read();
-    #[cfg(feature = "board")]
-    configure_pins(rcc);
-    // BRR = f_APB2 / baud with 4 fractional bits (oversampling by 16):
-    // APB2 = 84 MHz on the board (`board::configure_clocks`).
-    let brr = ((84_000_000 + BAUD / 2) / BAUD) as u16;
+    bsp::configure_usart_pins(rcc);
+    // BRR = f_APB2 / baud with 4 fractional bits (oversampling by 16).
+    let brr = ((bsp::APB2_HZ + BAUD / 2) / BAUD) as u16;
+    // SAFETY: BRR takes any 16-bit divisor; this one is 729 (mantissa 45,
+    // fraction 9: 115 226 baud at 84 MHz).
     usart1.brr().write(|w| unsafe { w.bits(brr) });
     usart1.cr1().write(|w| w.ue().set_bit().te().set_bit().re().set_bit().rxneie().set_bit());
-}
-
-/// PA9 (TX) and PA10 (RX) in alternate function 7.
-#[cfg(feature = "board")]
-fn configure_pins(rcc: &RCC) {
-    rcc.ahb1enr().modify(|_, w| w.gpioaen().set_bit());
-    let _ = rcc.ahb1enr().read();
-    // SAFETY: only PA9/PA10's fields are modified; no other code uses GPIOA.
-    let gpioa = unsafe { &*stm32f4::stm32f405::GPIOA::ptr() };
-    gpioa.moder().modify(|_, w| w.moder9().alternate().moder10().alternate());
-    gpioa.afrh().modify(|_, w| w.afrh9().af7().afrh10().af7());
 }
 
 /// The receiving side, owned by the USART1 interrupt.
@@ -114,7 +105,6 @@ impl Transmitter {
 
 /// Queues a whole frame for transmission, or nothing if it does not fit
 /// (telemetry is best effort: a frame is dropped, never cut).
-#[cfg_attr(feature = "demo", allow(dead_code))]
 pub fn queue_frame(queue: &mut Producer<'static, u8>, frame: &[u8]) -> bool {
     if queue.capacity() - queue.len() < frame.len() {
         return false;

@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use hal_sim::output::{figures, reason_name, state_name, write};
+use hal_sim::output::{figures, write};
 use hal_sim::{run, Config, Scenario};
 
 fn usage() -> String {
@@ -104,12 +104,7 @@ fn main() -> ExitCode {
             );
         }
         for (t, state, reason, hold) in &outcome.transitions {
-            println!(
-                "  {t:7.3} s: {} ({}, hold reason {})",
-                state_name(*state),
-                reason_name(*reason),
-                reason_name(*hold)
-            );
+            println!("  {t:7.3} s: {} ({}, hold reason {})", state.name(), reason.name(), hold.name());
         }
         println!(
             "  control step on this host: mean {} ns, max {} ns; telemetry samples received {}; {} and {}",

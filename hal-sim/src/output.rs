@@ -6,35 +6,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use cdpr::plot::{draw_line_plot, render_png, LinePlot, Series, PALETTE};
-use cdpr_control::protocol::{Reason, State};
-use cdpr_control::robot::{T_MAX, T_MIN};
+use cdpr_control::protocol::State;
 use cdpr_control::CABLES;
 
 use crate::scenario::{Outcome, Row};
-
-/// The state's name in the CSV.
-pub fn state_name(s: State) -> &'static str {
-    match s {
-        State::Disabled => "disabled",
-        State::Enabled => "enabled",
-        State::Holding => "holding",
-        State::Fault => "fault",
-    }
-}
-
-/// The reason's name in the CSV.
-pub fn reason_name(r: Reason) -> &'static str {
-    match r {
-        Reason::None => "none",
-        Reason::Infeasible => "infeasible",
-        Reason::BadSetpoint => "bad-setpoint",
-        Reason::Stale => "stale",
-        Reason::HoldTimeout => "hold-timeout",
-        Reason::Overruns => "overruns",
-        Reason::Output => "drive-error",
-        Reason::Tracking => "tracking",
-    }
-}
 
 /// The CSV table: `time,state,reason,brakes,locked,x,y,z,rx,ry,rz,ex,ey,ez,
 /// erx,ery,erz,position_error_mm,rotation_error_deg,speed,t1..t8,
@@ -56,8 +31,8 @@ pub fn csv(rows: &[Row]) -> String {
             s,
             "{:.3},{},{},{},{}",
             r.t,
-            state_name(r.state),
-            reason_name(r.reason),
+            r.state.name(),
+            r.reason.name(),
             u8::from(r.brakes),
             u8::from(r.locked)
         );
@@ -116,6 +91,10 @@ fn not_enabled(rows: &[Row]) -> Vec<(f64, f64)> {
 /// per axis) and the true tensions (N) with the limits; grey-red bands
 /// where the state is not Enabled.
 pub fn plots(outcome: &Outcome) -> [LinePlot; 3] {
+    // The robot file's (uniform) tension limits, drawn as lines.
+    let limits: Vec<(f64, &str)> = crate::scenario::load_robot()
+        .map(|r| vec![(r.limits().min()[0], "t_min"), (r.limits().max()[0], "t_max")])
+        .unwrap_or_default();
     let rows = &outcome.rows;
     let bands = not_enabled(rows);
     let band_label = "not enabled".to_string();
@@ -160,7 +139,7 @@ pub fn plots(outcome: &Outcome) -> [LinePlot; 3] {
                 )
             })
             .collect(),
-        hlines: vec![(f64::from(T_MIN), "t_min".into()), (f64::from(T_MAX), "t_max".into())],
+        hlines: limits.iter().map(|&(t, name)| (t, name.into())).collect(),
         bands,
         band_label,
         include_zero: true,

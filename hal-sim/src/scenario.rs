@@ -19,11 +19,11 @@
 
 use cdpr_control::controller::{FrictionCompensation, Wrench};
 use cdpr_control::feedback::{extrapolate, FeedbackLimits, Gains, Measured, TaskPid};
+use cdpr_control::link::SetpointRange;
 use cdpr_control::protocol::{HostMessage, Reason, Setpoint as WireSetpoint, State, Telemetry};
-use cdpr_control::robot::{suspended8, INERTIA, MASS, SETPOINT_RANGE};
+use cdpr_control::setpoint::Pose6;
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::trajectory::Pose6;
-use cdpr_control::{ControlLoop, TickCounter, CABLES};
+use cdpr_control::{ControlLoop, ControlRobot, TickCounter, CABLES};
 use nalgebra::{SVector, Vector3};
 use tension_core::trajectory::time_law;
 use tension_core::Method;
@@ -280,12 +280,22 @@ pub const FRICTION_ESTIMATE: FrictionCompensation = FrictionCompensation {
 pub const OMEGA: f32 = 2.0 * core::f32::consts::PI * 5.0;
 
 impl Config {
-    /// The settings of `hal-sim/README.md`.
+    /// The settings of `hal-sim/README.md` (the gains from the robot
+    /// file's platform; panics if the shipped robot file cannot be read).
     pub fn standard() -> Self {
+        let robot = load_robot().unwrap_or_else(|e| panic!("{e}"));
+        let platform = robot.platform();
+        let mass = platform.mass as f32;
+        let inertia = platform.inertia.map(|x| x as f32);
         Self {
             dt: 1.0e-4,
             length_limit: 0.02,
-            gains: Gains::triple_pole(MASS, [INERTIA[0][0], INERTIA[1][1], INERTIA[2][2]], OMEGA, OMEGA),
+            gains: Gains::triple_pole(
+                mass,
+                [inertia[(0, 0)], inertia[(1, 1)], inertia[(2, 2)]],
+                OMEGA,
+                OMEGA,
+            ),
             limits: FeedbackLimits {
                 force_max: 50.0,
                 moment_max: 6.0,
@@ -395,6 +405,13 @@ pub fn load_robot() -> Result<PlantRobot, String> {
     file.to_robot::<f64, 6, CABLES>().map_err(|e| format!("{}: {e:?}", path.display()))
 }
 
+/// Loads the robot file as the controller's robot (`f32`, as on the board).
+pub fn load_controller_robot() -> Result<ControlRobot, String> {
+    let path = robot_file_path();
+    let file = robot_file::RobotFile::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    file.to_robot::<f32, 6, CABLES>().map_err(|e| format!("{}: {e:?}", path.display()))
+}
+
 /// Runs `scenario` with `config`.
 pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let robot = load_robot()?;
@@ -406,10 +423,10 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
         plant.add_disturbance(*d);
     }
     let file_robot = load_robot()?;
-    let controller_robot = suspended8().map_err(|e| format!("controller robot: {}", e.status()))?;
-    let mut control =
-        ControlLoop::new(controller_robot, Method::Barycenter, SETPOINT_RANGE, SafetyLimits::DEFAULT)
-            .map_err(|e| format!("control loop: {}", e.status()))?;
+    let controller_robot = load_controller_robot()?;
+    let range = SetpointRange::for_robot(&controller_robot);
+    let mut control = ControlLoop::new(controller_robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
+        .map_err(|e| format!("control loop: {}", e.status()))?;
     control.controller_mut().set_friction(config.friction);
     let mut pid = TaskPid::new(config.gains, config.limits);
     let mut link = SerialLink::new(config.bytes_per_cycle);

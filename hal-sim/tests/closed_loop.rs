@@ -7,7 +7,6 @@ use std::path::PathBuf;
 
 use cdpr_control::feedback::Gains;
 use cdpr_control::protocol::{Reason, State};
-use cdpr_control::robot::{T_MAX, T_MIN};
 use hal_sim::output::{figures, write, Figures};
 use hal_sim::scenario::HOLD_POSES;
 use hal_sim::{run, Config, Outcome, Scenario};
@@ -94,9 +93,11 @@ fn tracking_a_loop_through_the_workspace() {
     assert!(f.rotation_error < 0.75f64.to_radians(), "{} rad", f.rotation_error);
     // The simulated tensions stay within the limits (so never slack) and
     // so do the commanded ones.
-    assert!(f.tension_min >= f64::from(T_MIN), "{}", f.tension_min);
-    assert!(f.tension_max <= f64::from(T_MAX), "{}", f.tension_max);
-    assert!(f.commanded.0 >= T_MIN && f.commanded.1 <= T_MAX, "{:?}", f.commanded);
+    let robot = hal_sim::scenario::load_controller_robot().unwrap();
+    let (t_min, t_max) = (robot.limits().min()[0], robot.limits().max()[0]);
+    assert!(f.tension_min >= f64::from(t_min), "{}", f.tension_min);
+    assert!(f.tension_max <= f64::from(t_max), "{}", f.tension_max);
+    assert!(f.commanded.0 >= t_min && f.commanded.1 <= t_max, "{:?}", f.commanded);
     // It did move: the reference went 0.8 m out and back.
     let xs = o.rows.iter().map(|r| r.pose[0]);
     let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));

@@ -1,4 +1,4 @@
-//! The end-to-end test: the product firmware (default features) in QEMU,
+//! The end-to-end test: the product program (`firmware`) in QEMU,
 //! its USART1 on a TCP socket this program listens on, driven like a host
 //! would drive the board.
 //!
@@ -30,15 +30,13 @@ use std::{
     time::{Duration, Instant},
 };
 
-use cdpr_control::trajectory;
+use cdpr_demo::trajectory;
 use cdpr_protocol::{
     encode, DeviceMessage, FrameDecoder, HostMessage, Reason, Setpoint, State, Telemetry, MAX_FRAME,
 };
 use tension_core::nalgebra::SVector;
 use tension_core::{Method, Robot, TensionSolver};
 
-/// The product firmware's ELF (built by `firmware::build_product`).
-pub const ELF: &str = "target/thumbv7em-none-eabihf/release/firmware";
 /// The robot the firmware's constants describe.
 const ROBOT_FILE: &str = "robots/suspended-8.toml";
 
@@ -86,11 +84,10 @@ impl Session {
     fn start() -> Result<Self, String> {
         let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| format!("cannot listen: {e}"))?;
         let port = listener.local_addr().map_err(|e| e.to_string())?.port();
-        let mut qemu = Command::new("qemu-run")
-            .args(["--machine", "netduinoplus2", "--cpu", "cortex-m4"])
-            .args(["--arg", "icount=shift=3,align=off,sleep=on"])
+        let mut qemu = Command::new(crate::firmware::QEMU_RUN)
+            .args(crate::firmware::qemu_args(true))
             .args(["--arg", &format!("serial=tcp:127.0.0.1:{port}")])
-            .arg(ELF)
+            .arg(crate::firmware::elf(crate::firmware::PRODUCT))
             .stdout(Stdio::piped())
             .process_group(0)
             .spawn()
@@ -297,7 +294,7 @@ fn judge_tracking(
 }
 
 /// Runs the scenario; each entry is one check's name and outcome.
-pub fn run() -> Vec<(String, Result<String, String>)> {
+pub fn run() -> Vec<Check> {
     let mut results = Vec::new();
     if let Err(e) = scenario(&mut results) {
         results.push(("end-to-end session".into(), Err(e)));
@@ -305,20 +302,66 @@ pub fn run() -> Vec<(String, Result<String, String>)> {
     results
 }
 
-fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), String> {
+/// One check's name and outcome.
+type Check = (String, Result<String, String>);
+
+/// The host's tolerances on the firmware's tensions, N, and torques, N m.
+#[derive(Clone, Copy)]
+struct Tolerances {
+    tension: f64,
+    torque: f64,
+}
+
+/// The robot file's robot in `f64` and the tolerances for it.
+fn host_robot() -> Result<(Robot68, Tolerances), String> {
     let robot = robot_file::RobotFile::load(Path::new(ROBOT_FILE))
         .map_err(|e| format!("{ROBOT_FILE}: {e}"))?
         .to_robot::<f64, 6, 8>()
         .map_err(|e| format!("{ROBOT_FILE}: {e}"))?;
     let range = robot.limits().max()[0] - robot.limits().min()[0];
     let winch = *robot.winch().ok_or("no winch")?;
-    let tension_tol = TENSION_TOLERANCE * range;
-    let torque_tol = tension_tol * winch.drum_radius / (winch.gear_ratio * winch.efficiency);
+    let tension = TENSION_TOLERANCE * range;
+    let torque = tension * winch.drum_radius / (winch.gear_ratio * winch.efficiency);
+    Ok((robot, Tolerances { tension, torque }))
+}
 
+/// The phases in order; the tracking comparison is computed last (the
+/// stream must not pause while the host solves, or it would go stale) but
+/// reported first.
+fn scenario(results: &mut Vec<Check>) -> Result<(), String> {
+    let (robot, tolerances) = host_robot()?;
     let mut s = Session::start()?;
-    let pace = Duration::from_millis(1);
+    let tracking = track(&mut s)?;
+    let last = tracking.last().copied();
+    results.push(corrupted_frame(&mut s, last)?);
+    let nan_start = s.telemetry_count();
+    results.push(nan_poses(&mut s, nan_start)?);
+    results.push(ramp_and_recover(&mut s, nan_start)?);
+    let stop_start = s.telemetry_count();
+    results.push(stream_stops(&s, stop_start));
+    results.push(method_over_the_link(&mut s, &robot, stop_start, tolerances)?);
 
-    // --- 1. Tracking: stream, enable, compare every sample with the host.
+    let tracked =
+        compare(&robot, Method::Barycenter, &s.sent, &tracking, |t| t.state == State::Enabled && t.solved);
+    let check = match tracked {
+        Err(e) => Err(e),
+        Ok(c) => judge_tracking(c, &tracking, last, tolerances.tension, tolerances.torque),
+    };
+    results.insert(0, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
+
+    let garbage = s.received.lock().unwrap().rejected_frames;
+    if garbage > 0 {
+        results.push(("telemetry frames decode on the host".into(), Err(format!("{garbage} bad frames"))));
+    }
+    Ok(())
+}
+
+/// The pause between two frames of a stream.
+const PACE: Duration = Duration::from_millis(1);
+
+/// Tracking (phase 1): stream the trajectory's first setpoints, enable;
+/// returns the telemetry of the stream.
+fn track(s: &mut Session) -> Result<Vec<Telemetry>, String> {
     s.send(&HostMessage::TelemetryPeriod(TELEMETRY_PERIOD))?;
     let from = s.telemetry_count();
     for k in 0..TRACKING_SETPOINTS {
@@ -326,13 +369,14 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
         if k == 5 {
             s.send(&HostMessage::Enable)?;
         }
-        thread::sleep(pace);
+        thread::sleep(PACE);
     }
     s.caught_up(from).ok_or("the firmware never reported the last tracking setpoint")?;
-    let tracking = s.telemetry_since(from);
-    let last = tracking.last().copied();
+    Ok(s.telemetry_since(from))
+}
 
-    // --- 2. A corrupted frame among good ones.
+/// Phase 2, a corrupted frame among good ones: rejected and counted, nothing else.
+fn corrupted_frame(s: &mut Session, last: Option<Telemetry>) -> Result<Check, String> {
     let before = s.telemetry_count();
     let k0 = TRACKING_SETPOINTS;
     let rejected_before = last.map_or(0, |t| t.counters.rejected_crc + t.counters.rejected_framing);
@@ -343,7 +387,7 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
     s.send_raw(&frame[..n])?;
     for k in k0..k0 + 50 {
         s.send_setpoint(k)?;
-        thread::sleep(pace);
+        thread::sleep(PACE);
     }
     s.caught_up(before).ok_or("the firmware never reported the setpoints after the corrupted frame")?;
     let after = s.telemetry_since(before);
@@ -353,7 +397,7 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
     // than 50 ms, not the frame; it is reported but not failed on.)
     let acted_on = after.iter().any(|t| t.reason == Reason::BadSetpoint || t.state == State::Fault);
     let enabled = after.iter().filter(|t| t.state == State::Enabled).count();
-    results.push((
+    Ok((
         "corrupted frame rejected and counted, state unchanged".into(),
         if rejected_after == rejected_before + 1 && !acted_on && enabled > 0 {
             Ok(format!(
@@ -366,11 +410,12 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
                 after.iter().map(|t| t.state).collect::<Vec<_>>()
             ))
         },
-    ));
+    ))
+}
 
-    // --- 3. NaN poses: hold, then fault with the torques ramped down.
+/// Phase 3, NaN poses from telemetry sample `before` on: hold, then fault.
+fn nan_poses(s: &mut Session, before: usize) -> Result<Check, String> {
     // NaN setpoints until the firmware reports a fault (at most 10 s).
-    let before = s.telemetry_count();
     let start = Instant::now();
     while start.elapsed() < Duration::from_secs(10)
         && s.find_since(before, |t| t.state == State::Fault).is_none()
@@ -379,7 +424,7 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
         let nan = Setpoint { seq: s.seq, pose: [f32::NAN, 0.0, 2.0, 0.0, 0.0, 0.0], ..s.sent[&(s.seq - 1)] };
         s.sent.insert(s.seq, nan);
         s.send(&HostMessage::Setpoint(nan))?;
-        thread::sleep(pace);
+        thread::sleep(PACE);
     }
     let holding = s.wait_for(before, Duration::from_secs(2), |t| t.state == State::Holding);
     let fault = s.wait_for(before, Duration::from_secs(2), |t| t.state == State::Fault);
@@ -400,13 +445,17 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
         }
         other => Err(format!("expected Holding(BadSetpoint) then Fault(HoldTimeout): {other:?}")),
     };
-    results.push(("NaN pose: holding, then fault".into(), check));
+    Ok(("NaN pose: holding, then fault".into(), check))
+}
 
-    // The ramp reaches zero with the brakes on; then recovery.
+/// The fault from sample `before` on ramps to zero with the brakes on;
+/// then ClearFault and Enable with good setpoints recover.
+fn ramp_and_recover(s: &mut Session, before: usize) -> Result<Check, String> {
     let ramped = s.wait_for(before, Duration::from_secs(10), |t| {
         t.state == State::Fault && t.torques.iter().all(|&x| x == 0.0) && t.brakes
     });
     let from = s.telemetry_count();
+    let k0 = TRACKING_SETPOINTS;
     for k in k0..k0 + 40 {
         s.send_setpoint(k)?;
         if k == k0 + 10 {
@@ -415,10 +464,10 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
         if k == k0 + 20 {
             s.send(&HostMessage::Enable)?;
         }
-        thread::sleep(pace);
+        thread::sleep(PACE);
     }
     let back = s.wait_for(from, Duration::from_secs(10), |t| t.state == State::Enabled);
-    results.push((
+    Ok((
         "fault ramps the torques to zero; ClearFault and Enable recover".into(),
         match (ramped, back) {
             (Some(r), Some(b)) => Ok(format!(
@@ -427,16 +476,17 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
             )),
             (r, b) => Err(format!("ramped to zero: {}, enabled again: {}", r.is_some(), b.is_some())),
         },
-    ));
+    ))
+}
 
-    // --- 4. The stream stops.
-    let before = s.telemetry_count();
+/// Phase 4, the stream stops (from sample `before` on): hold (stale), then fault.
+fn stream_stops(s: &Session, before: usize) -> Check {
     let _ = s.wait_for(before, Duration::from_secs(10), |t| t.state == State::Fault);
     let samples = s.telemetry_since(before);
     let first_hold = samples.iter().find(|t| t.state == State::Holding);
     let first_fault = samples.iter().find(|t| t.state == State::Fault);
     let enabled_until = samples.iter().take_while(|t| t.state == State::Enabled).last();
-    results.push((
+    (
         "stream stops: holding (stale), then fault".into(),
         match (first_hold, first_fault) {
             (Some(h), Some(f)) if h.reason == Reason::Stale && f.hold_reason == Reason::Stale => Ok(format!(
@@ -447,8 +497,17 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
             )),
             (h, f) => Err(format!("expected Holding(Stale) then Fault: {h:?} / {f:?}")),
         },
-    ));
-    // --- 5. Another method, selected over the link while disabled.
+    )
+}
+
+/// Phase 5, another method selected over the link while disabled, once
+/// the stale fault (from sample `before` on) has ramped down.
+fn method_over_the_link(
+    s: &mut Session,
+    robot: &Robot68,
+    before: usize,
+    tolerances: Tolerances,
+) -> Result<Check, String> {
     let ramped = s.wait_for(before, Duration::from_secs(10), |t| {
         t.state == State::Fault && t.torques.iter().all(|&x| x == 0.0)
     });
@@ -463,14 +522,15 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
             15 => s.send(&HostMessage::Enable)?,
             _ => {}
         }
-        thread::sleep(pace);
+        thread::sleep(PACE);
     }
     s.caught_up(from).ok_or("the firmware never reported the setpoints after the method switch")?;
     let switched = s.telemetry_since(from);
-    let min2 = compare(&robot, method, &s.sent, &switched, |t| {
+    let min2 = compare(robot, method, &s.sent, &switched, |t| {
         t.state == State::Enabled && t.solved && t.method == id
     });
-    results.push((
+    let tension_tol = tolerances.tension;
+    Ok((
         "method selected over the link (min-2-norm) matches the host's f64".into(),
         match min2 {
             _ if ramped.is_none() => Err("the stale fault's ramp never finished".into()),
@@ -483,21 +543,5 @@ fn scenario(results: &mut Vec<(String, Result<String, String>)>) -> Result<(), S
             }
             Ok(c) => Ok(format!("{} samples, worst |t - t_host| {:.2e} N", c.samples, c.worst_tension)),
         },
-    ));
-
-    // The references are computed last: the stream must not pause (it
-    // would go stale) while the host solves.
-    let tracked =
-        compare(&robot, Method::Barycenter, &s.sent, &tracking, |t| t.state == State::Enabled && t.solved);
-    let check = match tracked {
-        Err(e) => Err(e),
-        Ok(c) => judge_tracking(c, &tracking, last, tension_tol, torque_tol),
-    };
-    results.insert(0, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
-
-    let garbage = s.received.lock().unwrap().rejected_frames;
-    if garbage > 0 {
-        results.push(("telemetry frames decode on the host".into(), Err(format!("{garbage} bad frames"))));
-    }
-    Ok(())
+    ))
 }

@@ -3,18 +3,22 @@
 //! the end-to-end serial test.
 //!
 //! Every function expects the workspace root as the current directory (the
-//! xtask `main` enters it first). The firmware runs through the runner of
-//! `.cargo/config.toml` (`qemu-run ... -icount shift=3,align=off,sleep=off`),
-//! so `cargo run` passes the firmware's semihosting exit code through:
-//! 0 = pass, 32 + flags = its own verdict "fail" (1 over budget, 2 deadline
-//! overrun, 4 timer check, 8 unexpected status, 16 unexpected state
-//! sequence), 101 = panic, 102 = HardFault (see `firmware/src/demo.rs`).
+//! xtask `main` enters it first). The programs are built with cargo and run
+//! with `qemu-run` on the machine and `-icount` setting of
+//! [`cdpr_demo::qemu`]; it passes the program's semihosting exit code
+//! through: [`exit::PASS`], [`exit::FAIL`]` + flags` (the demo's own
+//! verdict, [`exit::fail`]), [`exit::PANIC`], [`exit::HARDFAULT`]. The
+//! figures the tests judge come from the records the programs log
+//! ([`cdpr_demo::report`]), not from their readable output.
 
 use crate::checks::run_step;
+use cdpr_demo::exit;
+use cdpr_demo::report::{self, Record, Report};
+use cdpr_demo::{BUDGET, EXPECTED_STATES};
 use std::{
     io::{BufRead, BufReader},
     os::unix::process::CommandExt,
-    path::Path,
+    path::{Path, PathBuf},
     process::{Child, Command, Stdio},
     thread,
     time::{Duration, Instant},
@@ -23,28 +27,26 @@ use std::{
 /// The firmware's target.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 /// The QEMU runner, pinned.
-const QEMU_RUN: &str = "qemu-run";
+pub const QEMU_RUN: &str = "qemu-run";
 const QEMU_RUN_VERSION: &str = "0.3.1";
-/// Instruction budget of one control step (the firmware's `BUDGET`, issue 4).
-/// Met: the firmware exits with 0 only when every step is within it (with
-/// code 33 when this budget is its only failure), and 0 is now required.
-const BUDGET: u64 = 20_000;
+/// The product program (its ELF is what the end-to-end test runs).
+pub const PRODUCT: &str = "firmware";
+/// The demo program.
+const DEMO: &str = "demo";
 /// What the test command holds the worst control step to: a regression guard
 /// a little above the figure measured when it was set (18,691 instructions,
-/// barycenter warm-started, suspended-8 trajectory).
-const REGRESSION_CEILING: u64 = 19_500;
+/// barycenter warm-started, suspended-8 trajectory), below the [`BUDGET`].
+const REGRESSION_CEILING: u32 = 19_500;
 /// Fewest control cycles a run must report.
-const MIN_CYCLES: u64 = 2_000;
+const MIN_CYCLES: u32 = 2_000;
 /// Longest a firmware run may take once built (it needs a few seconds).
 const RUN_TIMEOUT: Duration = Duration::from_secs(300);
 /// Limit on the worst stack depth the demo measures (stack painting), bytes.
-const STACK_LIMIT: u64 = 16 * 1024;
+const STACK_LIMIT: u32 = 16 * 1024;
 /// The chip's flash and RAM (STM32F405: 1 MiB flash; `memory.x` gives the
 /// firmware 112 KiB of the 128 KiB main SRAM).
 const FLASH_BYTES: u64 = 1024 * 1024;
 const RAM_BYTES: u64 = 112 * 1024;
-/// The demo's state sequence (Enabled -> Holding -> Fault -> Disabled -> Enabled).
-const DEMO_STATES: &str = "states: [Disabled, Enabled, Holding, Fault, Disabled, Enabled]";
 
 const CARGO: &str = env!("CARGO");
 
@@ -57,197 +59,221 @@ pub fn setup() -> Result<(), String> {
     ensure_qemu_run()
 }
 
-/// Builds the firmware (release) and runs it in QEMU, its output streamed.
-/// An error when the build fails or the firmware does not exit with 0
-/// (the run's figures are printed either way).
+/// Builds the demo (release) and runs it in QEMU, its output streamed.
+/// An error when the build fails or the demo does not exit with
+/// [`exit::PASS`] (the run's figures are printed either way).
 pub fn run_demo() -> Result<(), String> {
-    let run = run_firmware("demo", false)?;
+    let run = run_firmware(DEMO, false)?;
     match run.code {
-        Some(0) => Ok(()),
+        Some(exit::PASS) => Ok(()),
         code => Err(format!("the firmware {}", explain(code))),
     }
 }
 
-/// Runs the firmware's cycle-time test under QEMU and returns the counts of
-/// passed and failed checks:
-/// * the control step stays within the regression ceiling (below the 20000
+/// Runs the firmware's tests under QEMU and returns the counts of passed
+/// and failed checks:
+/// * the control step stays within the regression ceiling (below the
 ///   budget) over at least 2000 cycles with no deadline overrun, and the
-///   firmware exits with 0 (every step within the budget);
+///   demo exits with its pass verdict (every step within the budget);
 /// * the poses outside the workspace give `infeasible` (no other error, no
 ///   crash);
-/// * TIM2 ticks convert to instructions as the icount relation says.
+/// * TIM2 ticks convert to instructions as the icount relation says;
+/// * the safety states follow [`EXPECTED_STATES`]; the stack stays within
+///   its limit;
+/// * a panic and a HardFault stop the drives first;
+/// * the product fits the chip and passes the end-to-end serial test.
 ///
-/// An error only when the firmware cannot be built or run at all.
+/// An error only when the demo cannot be built or run at all.
 pub fn test() -> Result<(usize, usize), String> {
-    let run = run_firmware("demo", true)?;
-    let crashed = matches!(run.code, None | Some(1) | Some(EXIT_PANIC) | Some(EXIT_HARDFAULT));
-    let mut passed = 0;
-    let mut failed = 0;
-    let mut report = |name: &str, result: Result<String, String>| {
+    let mut tally = Checks::default();
+    let run = run_firmware(DEMO, true)?;
+    for (name, result) in DEMO_CHECKS.iter().zip(judge_demo(&run)) {
+        tally.report(name, result);
+    }
+    for (program, code, what) in
+        [("inject-panic", exit::PANIC, "panic"), ("inject-hardfault", exit::HARDFAULT, "HardFault")]
+    {
+        let outcome = run_firmware(program, true).and_then(|run| judge_injection(&run, code));
+        tally.report(&format!("a {what} stops the drives first (zero torque, brakes on)"), outcome);
+    }
+    product_checks(&mut tally);
+    Ok((tally.passed, tally.failed))
+}
+
+/// Passed and failed checks, each printed as it is decided.
+#[derive(Default)]
+struct Checks {
+    passed: usize,
+    failed: usize,
+}
+
+impl Checks {
+    fn report(&mut self, name: &str, result: Result<String, String>) {
         match &result {
             Ok(detail) => println!("==> firmware test {name}: ok ({detail})"),
             Err(detail) => println!("==> firmware test {name}: FAILED ({detail})"),
         }
         if result.is_ok() {
-            passed += 1;
+            self.passed += 1;
         } else {
-            failed += 1;
+            self.failed += 1;
         }
-    };
-
-    report(
-        "control step within the regression ceiling, no overrun",
-        match find_map(&run.lines, parse_step_line) {
-            None => Err(format!("no `control-step instructions:` line; the firmware {}", explain(run.code))),
-            Some(s) => {
-                let figures = format!(
-                    "min {} median {} max {} instructions over {} cycles, overruns {}",
-                    s.min, s.median, s.max, s.cycles, s.overruns
-                );
-                let verdict_ok = run.code == Some(0);
-                let budget = if s.max <= BUDGET {
-                    format!("within the {BUDGET} budget")
-                } else {
-                    format!("OVER the {BUDGET} budget of issue 4")
-                };
-                if s.max <= REGRESSION_CEILING && s.overruns == 0 && s.cycles >= MIN_CYCLES && verdict_ok {
-                    Ok(format!("{figures}; {budget}; ceiling {REGRESSION_CEILING}"))
-                } else if !verdict_ok {
-                    Err(format!("{figures}; the firmware {}", explain(run.code)))
-                } else {
-                    Err(format!("{figures}; ceiling {REGRESSION_CEILING}, at least {MIN_CYCLES} cycles"))
-                }
-            }
-        },
-    );
-
-    report(
-        "out-of-workspace poses give infeasible",
-        match find_map(&run.lines, parse_status_line) {
-            Some((infeasible, other)) if infeasible > 0 && other == 0 && !crashed => {
-                Ok(format!("{infeasible} infeasible cycles, no other error"))
-            }
-            Some((infeasible, other)) => Err(format!(
-                "{infeasible} infeasible cycles, {other} other errors; the firmware {}",
-                explain(run.code)
-            )),
-            None => Err(format!("no `cycles:` line; the firmware {}", explain(run.code))),
-        },
-    );
-
-    report(
-        "timer ticks convert to instructions",
-        match run.lines.iter().find(|l| l.contains("timer check")) {
-            Some(line) if !line.contains("FAILED") => {
-                Ok("icount shift=3: 8 TIM2 ticks per instruction".into())
-            }
-            Some(line) => Err(line.trim().to_string()),
-            None => Err(format!("no `timer check` line; the firmware {}", explain(run.code))),
-        },
-    );
-
-    report(
-        "safety states on the demo: enabled, holding, fault, disabled, enabled",
-        match run.lines.iter().find(|l| l.contains("states: [")) {
-            Some(line) if line.contains(DEMO_STATES) => Ok(line.trim().to_string()),
-            Some(line) => Err(format!("{} (expected `{DEMO_STATES}`)", line.trim())),
-            None => Err(format!("no `states:` line; the firmware {}", explain(run.code))),
-        },
-    );
-
-    report(
-        "worst stack depth within the limit (stack painting)",
-        match find_map(&run.lines, parse_stack_line) {
-            Some((used, size)) if used <= STACK_LIMIT && used < size => {
-                Ok(format!("{used} bytes used of {size}, limit {STACK_LIMIT}"))
-            }
-            Some((used, size)) => Err(format!("{used} bytes used of {size}, limit {STACK_LIMIT}")),
-            None => Err(format!("no `stack high-water mark` line; the firmware {}", explain(run.code))),
-        },
-    );
-
-    // Fault injection: a panic and a HardFault in the middle of the demo
-    // (drives commanding torques) must stop the drives before exiting.
-    for (feature, code, what) in
-        [("inject-panic", EXIT_PANIC, "panic"), ("inject-hardfault", EXIT_HARDFAULT, "HardFault")]
-    {
-        let outcome = run_firmware(feature, true).and_then(|run| {
-            let before = run.lines.iter().find(|l| l.contains("injecting a")).cloned();
-            let after = run.lines.iter().find(|l| l.contains("drives after the emergency stop")).cloned();
-            match (run.code, before, after) {
-                (Some(c), Some(before), Some(after))
-                    if c == code
-                        && stopped(&after)
-                        && !before.contains("[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]") =>
-                {
-                    Ok(format!("exit {c}; {} / {}", before.trim(), after.trim()))
-                }
-                (c, before, after) => Err(format!(
-                    "exit {c:?} (expected {code}), before: {before:?}, after: {after:?}; the firmware {}",
-                    explain(c)
-                )),
-            }
-        });
-        report(&format!("a {what} stops the drives first (zero torque, brakes on)"), outcome);
     }
+}
 
-    // The product build: sizes, then the end-to-end serial test.
-    let product = build_product();
-    report(
-        "product firmware memory (.text, .data, .bss)",
-        product.and_then(|()| {
-            let s = crate::elf::sizes(Path::new(crate::e2e::ELF))?;
-            let figures = format!(
-                ".text {} B, .rodata {} B, .data {} B, .bss {} B, .uninit {} B: flash {} of {} KiB, static RAM {} of {} KiB",
-                s.text,
-                s.rodata,
-                s.data,
-                s.bss,
-                s.uninit,
-                s.flash().div_ceil(1024),
-                FLASH_BYTES / 1024,
-                s.static_ram().div_ceil(1024),
-                RAM_BYTES / 1024
-            );
-            if s.flash() <= FLASH_BYTES && s.static_ram() + STACK_LIMIT <= RAM_BYTES && s.text > 0 {
-                Ok(figures)
-            } else {
-                Err(format!("{figures}; static RAM plus the {STACK_LIMIT}-byte stack limit must fit"))
-            }
-        }),
+/// The names of [`judge_demo`]'s checks, in its order.
+const DEMO_CHECKS: [&str; 5] = [
+    "control step within the regression ceiling, no overrun",
+    "out-of-workspace poses give infeasible",
+    "timer ticks convert to instructions",
+    "safety states on the demo: enabled, holding, fault, disabled, enabled",
+    "worst stack depth within the limit (stack painting)",
+];
+
+/// The demo run's final report against the bounds.
+fn judge_demo(run: &Run) -> [Result<String, String>; 5] {
+    let finished = run.records.iter().find_map(|r| match r {
+        Record::Finished(report) => Some(report),
+        _ => None,
+    });
+    match finished {
+        Some(r) => judge_report(r, run.code),
+        None => core::array::from_fn(|_| Err(format!("no final report; the firmware {}", explain(run.code)))),
+    }
+}
+
+/// The demo's report against the bounds; `code` is the process's exit code.
+fn judge_report(r: &Report, code: Option<i32>) -> [Result<String, String>; 5] {
+    let crashed = matches!(code, None | Some(1) | Some(exit::PANIC) | Some(exit::HARDFAULT));
+    let s = r.step;
+    let figures = format!(
+        "min {} median {} max {} instructions over {} cycles, overruns {}",
+        s.min, s.median, s.max, r.cycles, r.overruns
     );
+    let verdict_ok = code == Some(exit::PASS) && r.exit_code == exit::PASS;
+    let budget = if s.max <= BUDGET {
+        format!("within the {BUDGET} budget")
+    } else {
+        format!("OVER the {BUDGET} budget")
+    };
+    let step = if s.max <= REGRESSION_CEILING && r.overruns == 0 && r.cycles >= MIN_CYCLES && verdict_ok {
+        Ok(format!("{figures}; {budget}; ceiling {REGRESSION_CEILING}"))
+    } else if !verdict_ok {
+        Err(format!("{figures}; the firmware {}", explain(code)))
+    } else {
+        Err(format!("{figures}; ceiling {REGRESSION_CEILING}, at least {MIN_CYCLES} cycles"))
+    };
+    let statuses = if r.infeasible > 0 && r.other_errors == 0 && !crashed {
+        Ok(format!("{} infeasible cycles, no other error", r.infeasible))
+    } else {
+        Err(format!(
+            "{} infeasible cycles, {} other errors; the firmware {}",
+            r.infeasible,
+            r.other_errors,
+            explain(code)
+        ))
+    };
+    let expected = u64::from(r.calibration_expected);
+    let timer = format!(
+        "the calibration loop took {} TIM2 ticks, {expected} expected (icount shift={})",
+        r.calibration_ticks,
+        cdpr_demo::qemu::ICOUNT_SHIFT
+    );
+    let within = u64::from(r.calibration_ticks).abs_diff(expected) * 100 <= expected;
+    let timer = if r.calibration_exact && within { Ok(timer) } else { Err(timer) };
+    let states = if r.states() == EXPECTED_STATES {
+        Ok(format!("{:?}", r.states()))
+    } else {
+        Err(format!("{:?} (expected {EXPECTED_STATES:?})", r.states()))
+    };
+    let stack = format!("{} bytes used of {}, limit {STACK_LIMIT}", r.stack_used, r.stack_size);
+    let stack =
+        if r.stack_used <= STACK_LIMIT && r.stack_used < r.stack_size { Ok(stack) } else { Err(stack) };
+    [step, statuses, timer, states, stack]
+}
+
+/// A fault-injection run: it exits with `code`, the drives commanded
+/// torques before the fault and hold zero torque with the brakes on after.
+fn judge_injection(run: &Run, code: i32) -> Result<String, String> {
+    let before = run.records.iter().find_map(|r| match r {
+        Record::Injecting { cycle, torques } => Some((*cycle, *torques)),
+        _ => None,
+    });
+    let after = run.records.iter().find_map(|r| match r {
+        Record::Stopped { torques, brakes } => Some((*torques, *brakes)),
+        _ => None,
+    });
+    match (run.code, before, after) {
+        (Some(c), Some((cycle, moving)), Some((stopped, brakes)))
+            if c == code && moving.iter().any(|&t| t != 0.0) && stopped.iter().all(|&t| t == 0.0) && brakes =>
+        {
+            Ok(format!(
+                "exit {c}; at cycle {cycle} the drives commanded {moving:?} N m, after the stop {stopped:?} N m, brakes engaged"
+            ))
+        }
+        (c, before, after) => Err(format!(
+            "exit {c:?} (expected {code}), before: {before:?}, after: {after:?}; the firmware {}",
+            explain(c)
+        )),
+    }
+}
+
+/// The product: its sizes, then the end-to-end serial test.
+fn product_checks(tally: &mut Checks) {
+    let sizes = build_product().and_then(|()| {
+        let s = crate::elf::sizes(&elf(PRODUCT))?;
+        let figures = format!(
+            ".text {} B, .rodata {} B, .data {} B, .bss {} B, .uninit {} B: flash {} of {} KiB, static RAM {} of {} KiB",
+            s.text,
+            s.rodata,
+            s.data,
+            s.bss,
+            s.uninit,
+            s.flash().div_ceil(1024),
+            FLASH_BYTES / 1024,
+            s.static_ram().div_ceil(1024),
+            RAM_BYTES / 1024
+        );
+        if s.flash() <= FLASH_BYTES && s.static_ram() + u64::from(STACK_LIMIT) <= RAM_BYTES && s.text > 0 {
+            Ok(figures)
+        } else {
+            Err(format!("{figures}; static RAM plus the {STACK_LIMIT}-byte stack limit must fit"))
+        }
+    });
+    tally.report("product firmware memory (.text, .data, .bss)", sizes);
     println!("==> end-to-end: the product firmware in QEMU, driven over its serial link");
     for (name, result) in crate::e2e::run() {
-        report(&format!("end-to-end: {name}"), result);
+        tally.report(&format!("end-to-end: {name}"), result);
     }
-
-    Ok((passed, failed))
 }
 
-/// Exit codes of the firmware's panic and HardFault handlers.
-const EXIT_PANIC: i32 = 101;
-const EXIT_HARDFAULT: i32 = 102;
-
-/// Whether the emergency-stop line reports zero torque on every drive and
-/// the brakes engaged.
-fn stopped(line: &str) -> bool {
-    let Some(list) = line.split_once("torques [").and_then(|(_, rest)| rest.split_once(']')) else {
-        return false;
-    };
-    let zeros = list.0.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<Vec<_>, _>>();
-    matches!(zeros, Ok(v) if v.len() == 8 && v.iter().all(|&t| t == 0.0))
-        && line.contains("brakes engaged true")
-}
-
-/// Builds the product firmware (default features: the serial link).
+/// Builds the product program (the serial link).
 pub fn build_product() -> Result<(), String> {
-    run_step(CARGO, &["build", "--release", "-p", "firmware", "--target", TARGET])
+    build(PRODUCT)
 }
 
-/// `(used, size)` of `stack high-water mark: A of B bytes`.
-fn parse_stack_line(line: &str) -> Option<(u64, u64)> {
-    let rest = line.split_once("stack high-water mark: ")?.1;
-    Some((number_after(rest, "")?, number_after(rest, "of ")?))
+/// Builds a firmware program (release, for the QEMU board).
+fn build(program: &str) -> Result<(), String> {
+    run_step(CARGO, &["build", "--release", "-p", "firmware", "--target", TARGET, "--bin", program])
+}
+
+/// The ELF of a firmware program (release).
+pub fn elf(program: &str) -> PathBuf {
+    Path::new("target").join(TARGET).join("release").join(program)
+}
+
+/// `qemu-run`'s arguments before the ELF: the machine of [`cdpr_demo::qemu`]
+/// and `-icount shift=N,align=off,sleep=...`. With `sleep` idle time passes
+/// in real time (for a host on the serial link); without it QEMU skips it.
+pub fn qemu_args(sleep: bool) -> Vec<String> {
+    let icount = format!(
+        "icount=shift={},align=off,sleep={}",
+        cdpr_demo::qemu::ICOUNT_SHIFT,
+        if sleep { "on" } else { "off" }
+    );
+    ["--machine", cdpr_demo::qemu::MACHINE, "--cpu", cdpr_demo::qemu::CPU, "--arg", &icount]
+        .map(String::from)
+        .to_vec()
 }
 
 fn ensure_target() -> Result<(), String> {
@@ -314,43 +340,45 @@ fn succeeds(program: &str, args: &[&str]) -> bool {
         .unwrap_or(false)
 }
 
-/// A finished firmware run: its exit code and output lines.
+/// A finished firmware run: its exit code and the records it logged.
 struct Run {
     code: Option<i32>,
-    lines: Vec<String>,
+    records: Vec<Record>,
 }
 
-/// Builds the firmware, then runs it with the configured runner, echoing
-/// its output; with `capture` the lines are also kept for parsing.
-fn run_firmware(features: &str, capture: bool) -> Result<Run, String> {
+/// Builds a firmware program, then runs it in QEMU, echoing its readable
+/// output; the records it logs are decoded and kept.
+fn run_firmware(program: &str, capture: bool) -> Result<Run, String> {
     if !Path::new("firmware/Cargo.toml").is_file() {
         return Err("run from the workspace root (firmware/Cargo.toml not found)".into());
     }
-    let cargo_args = ["--release", "-p", "firmware", "--target", TARGET, "--features", features];
-    run_step(CARGO, &[&["build"][..], &cargo_args].concat())?;
-    println!("==> firmware in QEMU (netduinoplus2, -icount shift=3,align=off,sleep=off)");
-    let mut child = Command::new(CARGO)
-        .arg("run")
-        .args(["--quiet"])
-        .args(cargo_args)
+    build(program)?;
+    let args = qemu_args(false);
+    println!("==> {QEMU_RUN} {} {}", args.join(" "), elf(program).display());
+    let mut child = Command::new(QEMU_RUN)
+        .args(&args)
+        .arg(elf(program))
         .stdout(Stdio::piped())
-        .process_group(0) // so that a timeout can stop cargo, qemu-run and QEMU together
+        .process_group(0) // so that a timeout can stop qemu-run and QEMU together
         .spawn()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    let out = child.stdout.take().ok_or("no stdout from cargo run")?;
+        .map_err(|e| format!("cannot run {QEMU_RUN}: {e}"))?;
+    let out = child.stdout.take().ok_or("no stdout from qemu-run")?;
     let reader = thread::spawn(move || {
-        let mut lines = Vec::new();
+        let mut records = Vec::new();
         for line in BufReader::new(out).lines().map_while(Result::ok) {
-            println!("{line}");
-            if capture {
-                lines.push(line);
+            match report::decode(&line) {
+                // Encoded records are for this program, not for reading.
+                Some(Ok(record)) if capture => records.push(record),
+                Some(Ok(_)) => {}
+                Some(Err(e)) => println!("{line} (undecodable record: {e:?})"),
+                None => println!("{line}"),
             }
         }
-        lines
+        records
     });
     let code = wait_with_timeout(&mut child, RUN_TIMEOUT)?;
-    let lines = reader.join().map_err(|_| "the output reader panicked")?;
-    Ok(Run { code, lines })
+    let records = reader.join().map_err(|_| "the output reader panicked")?;
+    Ok(Run { code, records })
 }
 
 /// Waits for `child`; past `timeout` kills its whole process group.
@@ -370,96 +398,93 @@ fn wait_with_timeout(child: &mut Child, timeout: Duration) -> Result<Option<i32>
     }
 }
 
-/// What an exit code of `cargo run` says about the firmware.
+/// What a firmware program's exit code says.
 fn explain(code: Option<i32>) -> String {
     match code {
-        Some(0) => "exited with 0 (pass)".into(),
-        Some(c @ 32..=63) => {
-            let flags = c - 32;
-            let reasons: Vec<&str> = [
-                (1, "a control step over budget"),
-                (2, "deadline overruns"),
-                (4, "the timer check failed"),
-                (8, "unexpected statuses"),
-                (16, "unexpected state sequence"),
-            ]
-            .iter()
-            .filter(|(bit, _)| flags & bit != 0)
-            .map(|&(_, why)| why)
-            .collect();
+        Some(exit::PASS) => "exited with 0 (pass)".into(),
+        Some(c) if (exit::FAIL..exit::FAIL * 2).contains(&c) => {
+            let flags = c - exit::FAIL;
+            let reasons: Vec<&str> =
+                exit::fail::ALL.iter().filter(|(bit, _)| flags & bit != 0).map(|&(_, why)| why).collect();
             format!("exited with {c}: {}", reasons.join(", "))
         }
-        Some(EXIT_PANIC) => format!("panicked (exit code {EXIT_PANIC})"),
-        Some(EXIT_HARDFAULT) => format!("hit a HardFault (exit code {EXIT_HARDFAULT})"),
+        Some(exit::PANIC) => format!("panicked (exit code {})", exit::PANIC),
+        Some(exit::HARDFAULT) => format!("hit a HardFault (exit code {})", exit::HARDFAULT),
         Some(c) => format!("exited with {c} (runner or QEMU failure?)"),
         None => "was killed by a signal".into(),
     }
 }
 
-/// The first line `parse` accepts.
-fn find_map<T>(lines: &[String], parse: fn(&str) -> Option<T>) -> Option<T> {
-    lines.iter().find_map(|l| parse(l))
-}
-
-/// The figures of `control-step instructions: min A median B max C over K
-/// cycles, overruns N`.
-#[derive(Debug, PartialEq, Eq)]
-struct StepLine {
-    min: u64,
-    median: u64,
-    max: u64,
-    cycles: u64,
-    overruns: u64,
-}
-
-fn number_after(text: &str, key: &str) -> Option<u64> {
-    let at = text.find(key)? + key.len();
-    text[at..].split(|c: char| !c.is_ascii_digit()).next()?.parse().ok()
-}
-
-fn parse_step_line(line: &str) -> Option<StepLine> {
-    let rest = line.split_once("control-step instructions: ")?.1;
-    Some(StepLine {
-        min: number_after(rest, "min ")?,
-        median: number_after(rest, "median ")?,
-        max: number_after(rest, "max ")?,
-        cycles: number_after(rest, "over ")?,
-        overruns: number_after(rest, "overruns ")?,
-    })
-}
-
-/// `(infeasible, other errors)` of the `cycles: ...` line.
-fn parse_status_line(line: &str) -> Option<(u64, u64)> {
-    let rest = line.trim().strip_prefix("cycles: ")?;
-    Some((number_after(rest, "infeasible ")?, number_after(rest, "other errors ")?))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use cdpr_control::protocol::State;
+    use cdpr_control::CABLES;
+    use cdpr_demo::report::{Spread, MAX_STATES};
+
+    fn report() -> Report {
+        let mut states = [State::Disabled; MAX_STATES];
+        states[..EXPECTED_STATES.len()].copy_from_slice(&EXPECTED_STATES);
+        Report {
+            instructions: true,
+            cycles: 4000,
+            step: Spread { min: 12_900, median: 13_977, max: 18_830 },
+            solver: Spread { min: 8_532, median: 9_610, max: 14_462 },
+            overruns: 0,
+            calibration_ticks: 160_000,
+            calibration_expected: 160_000,
+            calibration_exact: true,
+            ok: 3651,
+            infeasible: 349,
+            other_errors: 0,
+            states,
+            state_count: EXPECTED_STATES.len() as u8,
+            stack_used: 7912,
+            stack_size: 77_780,
+            exit_code: exit::PASS,
+        }
+    }
 
     #[test]
-    fn parses_the_firmware_lines() {
-        let s = parse_step_line(
-            "control-step instructions: min 41047 median 53069 max 66542 over 4000 cycles, overruns 0",
-        );
-        assert_eq!(s, Some(StepLine { min: 41047, median: 53069, max: 66542, cycles: 4000, overruns: 0 }));
-        assert_eq!(
-            parse_step_line("barycenter solver instructions: min 1 median 2 max 3 over 4 cycles"),
-            None
-        );
-        assert_eq!(
-            parse_status_line(
-                "cycles: 3651 ok, infeasible 349 (torques held), other errors 0; warm start held 3648"
-            ),
-            Some((349, 0))
-        );
+    fn judges_the_demo_report() {
+        assert!(judge_report(&report(), Some(0)).iter().all(|r| r.is_ok()));
+        let slow = Report { step: Spread { max: 19_600, ..report().step }, ..report() };
+        assert!(judge_report(&slow, Some(0))[0].is_err());
+        let failed = Report { exit_code: exit::FAIL | exit::fail::BUDGET, ..report() };
+        assert!(judge_report(&failed, Some(33))[0].is_err());
+        let states = Report { state_count: 3, ..report() };
+        assert!(judge_report(&states, Some(48))[3].is_err());
+        let stack = Report { stack_used: 20_000, ..report() };
+        assert!(judge_report(&stack, Some(0))[4].is_err());
+        let timer = Report { calibration_ticks: 170_000, ..report() };
+        assert!(judge_report(&timer, Some(36))[2].is_err());
+        assert!(judge_report(&report(), Some(exit::PANIC))[1].is_err());
+        let none = Run { code: Some(101), records: vec![] };
+        assert!(judge_demo(&none).iter().all(|r| r.is_err()));
+    }
+
+    #[test]
+    fn judges_fault_injection() {
+        let run = |code, after: [f32; CABLES], brakes| Run {
+            code: Some(code),
+            records: vec![
+                Record::Injecting { cycle: 1000, torques: [0.1; CABLES] },
+                Record::Stopped { torques: after, brakes },
+            ],
+        };
+        let mut leak = [0.0; CABLES];
+        leak[7] = 0.1;
+        assert!(judge_injection(&run(101, [0.0; CABLES], true), exit::PANIC).is_ok());
+        assert!(judge_injection(&run(102, [0.0; CABLES], true), exit::PANIC).is_err());
+        assert!(judge_injection(&run(101, leak, true), exit::PANIC).is_err());
+        assert!(judge_injection(&run(101, [0.0; CABLES], false), exit::PANIC).is_err());
+    }
+
+    #[test]
+    fn explains_exit_codes() {
         assert!(explain(Some(33)).contains("over budget"));
         assert!(explain(Some(48)).contains("state sequence"));
-        assert_eq!(parse_stack_line("stack high-water mark: 6520 of 78908 bytes"), Some((6520, 78908)));
-        assert!(stopped("ERROR drives after the emergency stop: torques [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0] N m, brakes engaged true"));
-        assert!(!stopped("drives after the emergency stop: torques [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.1] N m, brakes engaged true"));
-        assert!(!stopped("drives after the emergency stop: torques [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0] N m, brakes engaged false"));
         assert!(explain(Some(101)).contains("panicked"));
+        assert_eq!(qemu_args(true).last().map(String::as_str), Some("icount=shift=3,align=off,sleep=on"));
     }
 }

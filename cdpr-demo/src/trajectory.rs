@@ -1,4 +1,4 @@
-//! The scripted setpoint trajectory: one closed loop of `DURATION_S` seconds,
+//! The demo's setpoint trajectory: one closed loop of `DURATION_S` seconds,
 //! given analytically so that velocity and acceleration are exact.
 //!
 //! With the phase `phi = 2 pi t / DURATION_S`:
@@ -14,7 +14,7 @@
 //! The peak accelerations stay a few m/s^2, so the d'Alembert wrench matters
 //! but does not dominate gravity.
 
-use tension_core::nalgebra::SVector;
+use cdpr_control::setpoint::{Pose6, Setpoint};
 use tension_core::Real;
 
 /// Control period, s.
@@ -38,47 +38,6 @@ pub const RX: f32 = 0.1;
 pub const RY: f32 = 0.08;
 /// Amplitude of `rz`, rad.
 pub const RZ: f32 = 0.2;
-
-/// A pose `[x, y, z, rx, ry, rz]` (conventions, "Poses") or one of its derivatives.
-pub type Pose6 = SVector<f32, 6>;
-
-/// A setpoint: pose and its first two time derivatives, with the sequence
-/// number it arrived with (the demo trajectory numbers cycle `k` as `k + 1`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Setpoint {
-    /// Sequence number.
-    pub seq: u32,
-    /// Pose `[x, y, z, rx, ry, rz]`.
-    pub pose: Pose6,
-    /// Its time derivative.
-    pub velocity: Pose6,
-    /// Its second time derivative.
-    pub acceleration: Pose6,
-}
-
-impl Setpoint {
-    /// The protocol's form of this setpoint (what a host sends).
-    pub fn to_wire(&self) -> cdpr_protocol::Setpoint {
-        cdpr_protocol::Setpoint {
-            seq: self.seq,
-            pose: self.pose.into(),
-            velocity: self.velocity.into(),
-            acceleration: self.acceleration.into(),
-        }
-    }
-}
-
-impl From<&cdpr_protocol::Setpoint> for Setpoint {
-    /// The setpoint a protocol message carries (unchecked: see `crate::link`).
-    fn from(s: &cdpr_protocol::Setpoint) -> Self {
-        Self {
-            seq: s.seq,
-            pose: SVector::from(s.pose),
-            velocity: SVector::from(s.velocity),
-            acceleration: SVector::from(s.acceleration),
-        }
-    }
-}
 
 /// The setpoint of control cycle `k` (`t = k PERIOD_S`, sequence number `k + 1`).
 pub fn setpoint(k: u32) -> Setpoint {

@@ -1,0 +1,82 @@
+//! What the firmware's demo run and `cargo xtask` share, defined once:
+//!
+//! * [`trajectory`]: the scripted setpoint trajectory the demo follows and
+//!   the end-to-end test streams;
+//! * [`report`]: the typed records the demo logs, postcard-encoded, for
+//!   `xtask` to decode;
+//! * [`BUDGET`], [`EXPECTED_STATES`], the [`exit`] codes: what the demo's
+//!   verdict is made of;
+//! * [`qemu`]: the emulator's machine and its `-icount` setting, which the
+//!   firmware's tick conversion assumes.
+//!
+//! `no_std`: the firmware builds it for the board, `xtask` for the host.
+
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod report;
+pub mod trajectory;
+
+use cdpr_control::protocol::State;
+
+/// Instruction budget of one control step (QEMU; cycles on the board):
+/// the demo passes only when every step is within it.
+pub const BUDGET: u32 = 20_000;
+
+/// The states the demo goes through, in order: Enabled, Holding (the pose
+/// leaves the workspace), Fault (held too long), Disabled (the scripted
+/// operator clears the fault), Enabled.
+pub const EXPECTED_STATES: [State; 6] =
+    [State::Disabled, State::Enabled, State::Holding, State::Fault, State::Disabled, State::Enabled];
+
+/// The cycle at which the fault-injection programs fault (enabled and
+/// moving at that point).
+pub const INJECT_AT: u32 = 1000;
+
+/// Exit codes of the firmware's programs (semihosting, under QEMU).
+pub mod exit {
+    /// The demo's verdict: pass.
+    pub const PASS: i32 = 0;
+    /// Base of the demo's "fail" verdict; the low bits say why ([`fail`]).
+    pub const FAIL: i32 = 32;
+    /// After a panic (the drives stopped first).
+    pub const PANIC: i32 = 101;
+    /// After a HardFault (the drives stopped first).
+    pub const HARDFAULT: i32 = 102;
+
+    /// Failure flags, or-ed into [`FAIL`].
+    pub mod fail {
+        /// Some step took more than [`crate::BUDGET`].
+        pub const BUDGET: i32 = 1;
+        /// Some step missed its deadline.
+        pub const OVERRUN: i32 = 2;
+        /// The timer calibration disagrees with the icount relation.
+        pub const CALIBRATION: i32 = 4;
+        /// The trajectory never left the workspace, or a cycle failed with
+        /// something other than `infeasible`.
+        pub const STATUS: i32 = 8;
+        /// The states differed from [`crate::EXPECTED_STATES`].
+        pub const STATES: i32 = 16;
+
+        /// Every flag with what it means.
+        pub const ALL: [(i32, &str); 5] = [
+            (BUDGET, "a control step over budget"),
+            (OVERRUN, "deadline overruns"),
+            (CALIBRATION, "the timer check failed"),
+            (STATUS, "unexpected statuses"),
+            (STATES, "unexpected state sequence"),
+        ];
+    }
+}
+
+/// The emulator the firmware runs in (`qemu-run`'s arguments).
+pub mod qemu {
+    /// QEMU's machine: an STM32F405 board.
+    pub const MACHINE: &str = "netduinoplus2";
+    /// Its core.
+    pub const CPU: &str = "cortex-m4";
+    /// `-icount shift=N`: every instruction advances virtual time by `2^N`
+    /// ns (a deterministic 125 MIPS CPU at 3).
+    pub const ICOUNT_SHIFT: u32 = 3;
+}

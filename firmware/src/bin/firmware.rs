@@ -1,0 +1,129 @@
+//! The product: the 1 kHz control loop of the cable robot, setpoints and
+//! commands over USART1 (`cdpr-protocol`), telemetry back, until reset.
+//!
+//! Every millisecond ([`firmware::periodic::Releases`]) the `control` task
+//! drains the bytes USART1 received, lets [`cdpr_control::ControlLoop`]
+//! act on the frames (setpoints, enable, disable, clear fault, telemetry
+//! rate, method), solves the newest setpoint (kinematics, wrench with the
+//! d'Alembert terms, warm-started barycenter, motor torques), lets the
+//! safety state machine decide what reaches the winches, writes the drives
+//! and queues telemetry, which a low-priority task writes to the line.
+//! TIM2 times every step; a late cycle counts as an overrun, which the
+//! state machine sees.
+
+#![no_std]
+#![no_main]
+
+#[rtic::app(device = stm32f4::stm32f405, dispatchers = [SPI1, SPI2])]
+mod app {
+    use cdpr_control::controller::Wrench;
+    use cdpr_control::TickCounter;
+    use cdpr_protocol::{encode, DeviceMessage, MAX_FRAME};
+    use firmware::periodic::Releases;
+    use firmware::serial::{self, Receiver, Transmitter, RX_QUEUE, TX_QUEUE};
+    use firmware::{bsp, clock, drives, stack, Board};
+    use heapless::spsc::{Consumer, Producer, Queue};
+
+    #[shared]
+    struct Shared {}
+
+    #[local]
+    struct Local {
+        board: Board,
+        rx: Consumer<'static, u8>,
+        tx: Producer<'static, u8>,
+        receiver: Receiver,
+        transmitter: Transmitter,
+    }
+
+    #[init(local = [
+        rx_queue: Queue<u8, RX_QUEUE> = Queue::new(),
+        tx_queue: Queue<u8, TX_QUEUE> = Queue::new(),
+    ])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let (board, rest) = Board::start(cx.device);
+        let (rx_in, rx) = cx.local.rx_queue.split();
+        let (tx, tx_out) = cx.local.tx_queue.split();
+        serial::init(rest.usart1, &rest.rcc);
+        Board::start_watchdog(&rest.iwdg);
+        if control::spawn().is_err() {
+            panic!("control task already spawned");
+        }
+        let local =
+            Local { board, rx, tx, receiver: Receiver::new(rx_in), transmitter: Transmitter::new(tx_out) };
+        (Shared {}, local)
+    }
+
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        firmware::idle()
+    }
+
+    /// Every received byte into the queue (highest priority: a byte must
+    /// be taken before the next arrives).
+    #[task(binds = USART1, priority = 3, local = [receiver])]
+    fn usart1(cx: usart1::Context) {
+        cx.local.receiver.on_interrupt();
+    }
+
+    /// Writes queued telemetry to the line (lowest priority).
+    #[task(priority = 1, local = [transmitter])]
+    async fn transmit(cx: transmit::Context) {
+        cx.local.transmitter.drain();
+    }
+
+    /// The 1 kHz control loop.
+    #[task(priority = 2, local = [board, rx, tx])]
+    async fn control(cx: control::Context) {
+        let Board { clock, drives, control, .. } = cx.local.board;
+        let (rx, tx) = (cx.local.rx, cx.local.tx);
+        defmt::println!(
+            "{=str} cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str}); serial link on USART1, disabled until Enable",
+            firmware::robot::NAME,
+            bsp::SYSCLK_HZ / 1_000_000,
+            bsp::TARGET,
+        );
+        let mut frame = [0u8; MAX_FRAME];
+        let mut overrun = false;
+        let mut last_state = control.supervisor().state();
+        let mut releases = Releases::start().await;
+        loop {
+            let start = clock.ticks();
+            bsp::feed_watchdog();
+            // Bounded: the queue holds at most RX_QUEUE bytes.
+            for _ in 0..RX_QUEUE {
+                match rx.dequeue() {
+                    Some(byte) => control.receive_byte(byte),
+                    None => break,
+                }
+            }
+            let report = control.step(&*clock, drives, &Wrench::zeros(), overrun);
+            control.record_cost(clock::ticks_to_units(clock.since(start)));
+            if let Some(telemetry) = report.telemetry {
+                if let Ok(n) = encode(&DeviceMessage::Telemetry(telemetry), &mut frame) {
+                    if serial::queue_frame(tx, &frame[..n]) {
+                        // Already running: it will find the new bytes.
+                        let _ = transmit::spawn();
+                    }
+                }
+            }
+            if report.state != last_state {
+                let (stack, _) = stack::stack_high_water();
+                let (torques, brakes) = drives::drive_outputs();
+                defmt::println!(
+                    "cycle {=u32}: {} -> {} ({}); drives {} N m, brakes {=bool}; counters {}; stack high-water mark {=u32} bytes",
+                    report.cycle,
+                    last_state,
+                    report.state,
+                    report.reason,
+                    torques,
+                    brakes,
+                    control.counters(),
+                    stack
+                );
+                last_state = report.state;
+            }
+            overrun = releases.next().await;
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! The firmware's library: what every program on the STM32F405 shares. The
+//! programs are in `src/bin/`:
+//!
+//! * `firmware`, the product: setpoints and commands over USART1
+//!   (`cdpr-protocol`), telemetry back, every millisecond until reset;
+//! * `demo` (`cargo xtask run`): the same control loop fed by the scripted
+//!   trajectory of `cdpr-demo`, timed, ending with an encoded report;
+//! * `inject-panic`, `inject-hardfault`: the demo, faulting at cycle 1000,
+//!   to check that the handlers stop the drives first (`cargo xtask test`).
+//!
+//! Each is a small RTIC 2 app; the pieces are here:
+//!
+//! * [`bsp`]: board support, one module per board (QEMU's
+//!   `netduinoplus2`, a real STM32F405 with the `board` feature), chosen in
+//!   one place;
+//! * [`mono`]: the RTIC monotonic on TIM5; [`periodic`]: the 1 ms release
+//!   every control loop runs on;
+//! * [`clock`]: TIM2 as the tick counter that times the steps;
+//! * [`drives`]: the winch drives and the emergency stop; [`serial`]:
+//!   USART1; [`stack`]: stack painting; [`robot`]: the robot's constants,
+//!   generated from its robot file;
+//! * [`demo`]: the demo run (the `demo` and `inject-*` programs);
+//! * the panic and HardFault handlers: the drives stop first, then the
+//!   program exits with [`cdpr_demo::exit::PANIC`] or
+//!   [`cdpr_demo::exit::HARDFAULT`].
+
+#![no_std]
+
+pub mod bsp;
+pub mod clock;
+pub mod demo;
+pub mod drives;
+pub mod mono;
+pub mod periodic;
+pub mod robot;
+pub mod serial;
+pub mod stack;
+
+use cdpr_control::supervisor::SafetyLimits;
+use cdpr_control::ControlLoop;
+use stm32f4::stm32f405::{Peripherals, IWDG, RCC, USART1};
+use tension_core::Method;
+
+use crate::clock::Tim2Counter;
+use crate::drives::Drives;
+use crate::mono::Mono;
+
+/// What every program's control task owns: the step timer and its
+/// calibration, the drives and the control loop.
+pub struct Board {
+    /// TIM2, timing the steps.
+    pub clock: Tim2Counter,
+    /// TIM2 ticks of the calibration loop ([`clock::calibrate`]).
+    pub calibration_ticks: u32,
+    /// The winch drives.
+    pub drives: Drives,
+    /// The control loop for [`robot::robot`] (barycenter, default safety limits).
+    pub control: ControlLoop,
+}
+
+/// The peripherals a program may still need after [`Board::start`].
+pub struct Rest {
+    /// Reset and clock control (enables the USART's clock).
+    pub rcc: RCC,
+    /// The host link.
+    pub usart1: USART1,
+    /// The independent watchdog ([`Board::start_watchdog`]).
+    pub iwdg: IWDG,
+}
+
+impl Board {
+    /// Brings the board up: stack painting, the board's clocks, TIM2 and
+    /// its calibration, the monotonic on TIM5 and the control loop.
+    /// Panics if the robot's constants do not form a valid robot.
+    pub fn start(dp: Peripherals) -> (Self, Rest) {
+        stack::paint_stack();
+        bsp::configure_clocks(&dp.RCC, &dp.FLASH);
+        let clock = Tim2Counter::start(dp.TIM2, &dp.RCC);
+        let calibration_ticks = clock::calibrate(&clock);
+        Mono::start(dp.TIM5, &dp.RCC, bsp::TIMER_HZ as u32);
+        let control = match robot::robot().and_then(|robot| {
+            let range = robot::setpoint_range(&robot);
+            ControlLoop::new(robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
+        }) {
+            Ok(c) => c,
+            Err(e) => panic!("robot description rejected: {}", e.status()),
+        };
+        let board = Self { clock, calibration_ticks, drives: Drives::new(), control };
+        (board, Rest { rcc: dp.RCC, usart1: dp.USART1, iwdg: dp.IWDG })
+    }
+
+    /// Starts the watchdog (board only); the control loop feeds it every
+    /// cycle from now on. Call last in `init`.
+    pub fn start_watchdog(iwdg: &IWDG) {
+        bsp::start_watchdog(iwdg);
+    }
+}
+
+/// The idle loop: sleep until the next interrupt; under `-icount ...
+/// sleep=off` QEMU then jumps virtual time straight to the next timer event.
+pub fn idle() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Ends the program: motors stopped first. Under QEMU the exit code
+/// reaches the shell; on the board the core waits for the watchdog (or a
+/// debugger).
+pub fn exit(code: i32) -> ! {
+    drives::emergency_stop();
+    bsp::exit(code)
+}
+
+/// What the drives hold after the emergency stop, as a readable line and
+/// as the encoded record the test command decodes.
+fn report_stop() {
+    let (torques, brakes) = drives::drive_outputs();
+    defmt::error!("drives after the emergency stop: torques {} N m, brakes engaged {=bool}", torques, brakes);
+    demo::log_record(&cdpr_demo::report::Record::Stopped { torques, brakes });
+}
+
+/// Stops the motors, logs the panic and exits with [`cdpr_demo::exit::PANIC`].
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    drives::emergency_stop();
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    report_stop();
+    exit(cdpr_demo::exit::PANIC)
+}
+
+/// Stops the motors, logs the faulting address and exits with
+/// [`cdpr_demo::exit::HARDFAULT`].
+///
+/// `unsafe fn` because cortex-m-rt requires it of a HardFault handler; the
+/// runtime calls it only on a HardFault, with the stacked frame.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    drives::emergency_stop();
+    defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
+    report_stop();
+    exit(cdpr_demo::exit::HARDFAULT)
+}
