@@ -22,7 +22,7 @@ use tension_core::{
 /// near the border, `no-convergence`.
 fn random_cases<const N: usize, const M: usize>(cases: u32) {
     let solved = AtomicUsize::new(0);
-    let mut runner = TestRunner::new(ProptestConfig::with_cases(cases));
+    let mut runner = TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
     runner
         .run(&random_problem::<N, M>(3.0), |(w, f, limits)| {
             match solve(Method::AnalyticCentre, &w, &f, &limits, &PreviousCycle::NONE) {

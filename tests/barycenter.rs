@@ -77,7 +77,7 @@ fn compare<const N: usize, const M: usize>(
 fn random_cases<const N: usize, const M: usize>(cases: u32) {
     let feasible = AtomicUsize::new(0);
     let infeasible = AtomicUsize::new(0);
-    let mut runner = TestRunner::new(ProptestConfig::with_cases(cases));
+    let mut runner = TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
     runner
         .run(&random_problem::<N, M>(30.0), |(w, f, limits)| {
             match compare(w, f, limits) {
@@ -309,7 +309,7 @@ fn nearly_parallel_lines_meeting_at_the_first_vertex() {
 /// the walk, the brute force and the clipping reference agree.
 #[test]
 fn nearly_parallel_bundles() {
-    let mut runner = TestRunner::new(ProptestConfig::with_cases(2000));
+    let mut runner = TestRunner::new(cdpr_integration_tests::persisted_config(2000, file!()));
     let strategy = (
         prop::collection::vec(0.0f64..std::f64::consts::PI, 2),
         prop::collection::vec(-1e-3f64..1e-3, 16),

@@ -128,7 +128,7 @@ fn check<const N: usize, const M: usize>(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(500))]
+    #![proptest_config(cdpr_integration_tests::persisted_config(500, file!()))]
 
     #[test]
     fn closed_forms_6x8((w, f, limits) in random_problem::<6, 8>(2.0)) { check(w, f, limits.min()[0], limits.max()[0])?; }

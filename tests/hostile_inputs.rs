@@ -182,7 +182,8 @@ fn campaign<T: Real + std::fmt::Debug, const N: usize, const M: usize>(
         prop::collection::vec(perturbation(raw), len),
     );
     let reach = std::cell::Cell::new(Reach::default());
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig::with_cases(cases));
+    let mut runner =
+        proptest::test_runner::TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
     runner
         .run(&strategy, |(plausible, raw_numbers, perturbed)| {
             let mut r = reach.get();
@@ -233,7 +234,7 @@ fn arbitrary_bits_planar2_f32() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(3000))]
+    #![proptest_config(cdpr_integration_tests::persisted_config(3000, file!()))]
 
     #[test]
     fn arbitrary_wrench_matrices(entries in prop::collection::vec(hostile_f64(), 6 * 8 + 6 + 8)) {

@@ -1,6 +1,6 @@
 //! `puncture`, `improved-puncture`, `min-2-norm`, `min-1-norm` and
 //! `optimally-safe` against references written differently from
-//! `tension-core` (issue 7):
+//! `tension-core`:
 //! * `r = 2`: the feasible polygon from the Sutherland-Hodgman clipper of the
 //!   test support (an eigen-decomposition null space, an LU particular
 //!   solution), with brute force over its vertices and edges (2-norm,
@@ -19,7 +19,7 @@ use cdpr_integration_tests::{
     clip_polygon, random_problem, reference_particular, shipped_robot, trajectory, ReferencePolygon, Sample,
 };
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
-use proptest::{prelude::*, test_runner::TestRunner};
+use proptest::test_runner::TestRunner;
 use tension_core::{solve, Error, Method, PreviousCycle, Robot, TensionLimits, TensionSolver};
 
 const NEW: [Method; 5] =
@@ -104,7 +104,7 @@ fn run_cases<const N: usize, const M: usize>(
 ) -> (usize, usize) {
     let solved = AtomicUsize::new(0);
     let failed = AtomicUsize::new(0);
-    let mut runner = TestRunner::new(ProptestConfig::with_cases(cases));
+    let mut runner = TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
     runner
         .run(&random_problem::<N, M>(push), |(w, f, limits)| {
             if check(w, f, limits) {
@@ -536,7 +536,7 @@ fn puncture_against_bisection() {
 #[test]
 fn improved_puncture_covers_more_poses() {
     let (mut plain_only, mut improved_only) = (0, 0);
-    let mut runner = TestRunner::new(ProptestConfig::with_cases(600));
+    let mut runner = TestRunner::new(cdpr_integration_tests::persisted_config(600, file!()));
     let plain_count = std::cell::Cell::new(0);
     let improved_count = std::cell::Cell::new(0);
     runner

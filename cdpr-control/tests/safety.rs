@@ -435,7 +435,12 @@ fn action() -> impl Strategy<Value = Action> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    #![proptest_config(ProptestConfig {
+        cases: 200,
+        // Saved beside this file (`<name>.proptest-regressions`) and committed.
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"))),
+        ..ProptestConfig::default()
+    })]
 
     /// Whatever arrives: torques finite and within the winch limit, brakes
     /// engaged exactly in Disabled and Fault, Enabled only on a cycle that

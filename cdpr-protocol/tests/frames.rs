@@ -176,7 +176,12 @@ fn same_bits(a: &HostMessage, b: &HostMessage) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(1000))]
+    #![proptest_config(ProptestConfig {
+        cases: 1000,
+        // Saved beside this file (`<name>.proptest-regressions`) and committed.
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"))),
+        ..ProptestConfig::default()
+    })]
 
     /// Any message survives encoding and decoding, also in a stream that
     /// starts with garbage (the decoder resynchronises at a delimiter).

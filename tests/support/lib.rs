@@ -6,9 +6,22 @@
 use std::path::PathBuf;
 
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
-use proptest::prelude::*;
+use proptest::{prelude::*, test_runner::FileFailurePersistence};
 use robot_file::RobotFile;
 use tension_core::{Real, Robot, TensionLimits};
+
+/// A proptest configuration of `cases` cases whose failures are saved beside
+/// `source_file` (pass `file!()`) as `<name>.proptest-regressions`, committed
+/// and replayed first on every machine. (The default, a folder beside the
+/// crate's `lib.rs`, is never found for files under `tests/`.)
+pub fn persisted_config(cases: u32, source_file: &'static str) -> ProptestConfig {
+    ProptestConfig {
+        cases,
+        source_file: Some(source_file),
+        failure_persistence: Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions"))),
+        ..ProptestConfig::default()
+    }
+}
 
 /// The repository's `robots/` folder, the one source of robot files.
 pub fn robots_dir() -> PathBuf {
