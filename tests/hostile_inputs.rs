@@ -391,3 +391,43 @@ fn wrong_shapes_are_unsupported() {
         Error::UnsupportedShape
     );
 }
+
+#[test]
+fn limits_whose_squares_overflow_are_refused_once() {
+    // 1e308 N would make every pose `nonfinite`; it is refused where the
+    // limits are made.
+    assert_eq!(TensionLimits::<f64, 8>::uniform(1.0, 1e308).unwrap_err(), Error::InvalidLimits);
+    assert_eq!(TensionLimits::<f64, 8>::uniform(1.0, 1e154).unwrap_err(), Error::InvalidLimits);
+    assert!(TensionLimits::<f64, 8>::uniform(1.0, 1e150).is_ok());
+    assert_eq!(TensionLimits::<f32, 8>::uniform(1.0, 1e19).unwrap_err(), Error::InvalidLimits);
+    assert!(TensionLimits::<f32, 8>::uniform(1.0, 1e18).is_ok());
+}
+
+#[test]
+fn inertia_must_be_symmetric_positive_semidefinite() {
+    let build = |inertia: Matrix3<f64>| {
+        let platform =
+            Platform { mass: 1.0, com: Vector3::zeros(), gravity: Vector3::new(0.0, 0.0, -9.81), inertia };
+        let (robot, _) = suspended();
+        Robot::<f64, 6, 8>::new(
+            RobotKind::Spatial6,
+            *robot.anchors(),
+            *robot.attachments(),
+            *robot.limits(),
+            platform,
+            None,
+        )
+    };
+    assert!(build(Matrix3::identity() * 0.01).is_ok());
+    assert!(build(Matrix3::zeros()).is_ok(), "a point mass");
+    for bad in [
+        Matrix3::identity() * -0.01,
+        Matrix3::from_diagonal(&Vector3::new(0.01, 0.01, -0.001)),
+        // Symmetric with positive diagonal but indefinite.
+        Matrix3::new(0.01, 0.02, 0.0, 0.02, 0.01, 0.0, 0.0, 0.0, 0.01),
+        // Not symmetric.
+        Matrix3::new(0.01, 0.005, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.01),
+    ] {
+        assert_eq!(build(bad).unwrap_err(), Error::InvalidLimits, "{bad}");
+    }
+}

@@ -219,10 +219,27 @@ pub struct Robot<T: Real, const N: usize, const M: usize> {
     winch: Option<Winch<T>>,
 }
 
+/// Whether a 3 x 3 matrix is symmetric and positive semi-definite, to the
+/// rounding of its entries: symmetric within `1e3 eps` of its largest entry,
+/// and every principal minor (three diagonal entries, three 2 x 2, the
+/// determinant) at least minus that tolerance to the minor's power.
+fn positive_semidefinite<T: Real>(a: &Matrix3<T>) -> bool {
+    let size = a.amax();
+    let tol = tolerance::equality(size);
+    let sym = (0..3).all(|i| (0..3).all(|j| (a[(i, j)] - a[(j, i)]).abs() <= tol));
+    let diag = (0..3).all(|i| a[(i, i)] >= -tol);
+    let minors = [(0, 1), (0, 2), (1, 2)]
+        .iter()
+        .all(|&(i, j)| a[(i, i)] * a[(j, j)] - a[(i, j)] * a[(j, i)] >= -tol * size);
+    sym && diag && minors && a.determinant() >= -tol * size * size
+}
+
 impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
     /// A robot; [`Error::UnsupportedShape`] unless `N` is the kind's number of
     /// degrees of freedom and `M >= N`, [`Error::NonFinite`] for any
-    /// non-finite number, [`Error::InvalidLimits`] for a negative mass.
+    /// non-finite number, [`Error::InvalidLimits`] for a negative mass or an
+    /// inertia that is not symmetric positive semi-definite (a body's inertia
+    /// about its centre of mass always is; within `1e3 eps` of its size).
     pub fn new(
         kind: RobotKind,
         anchors: [Vector3<T>; M],
@@ -245,7 +262,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         if !all_finite(numbers) {
             return Err(Error::NonFinite);
         }
-        if platform.mass < T::zero() {
+        if platform.mass < T::zero() || !positive_semidefinite(&platform.inertia) {
             return Err(Error::InvalidLimits);
         }
         Ok(Self { kind, anchors, attachments, limits, platform, winch })

@@ -15,13 +15,18 @@ pub struct TensionLimits<T: Real, const M: usize> {
 
 impl<T: Real, const M: usize> TensionLimits<T, M> {
     /// Per-cable limits; [`Error::NonFinite`] or [`Error::InvalidLimits`]
-    /// unless every pair is finite with `0 <= t_min < t_max`.
+    /// unless every pair is finite with `0 <= t_min < t_max`, and small
+    /// enough that the methods' sums of squares of tensions stay finite
+    /// (`M t_max^2` below the largest float: `t_max` up to about 6.5e18 N in
+    /// `f32` and 4.7e153 N in `f64` for 8 cables); larger limits would make
+    /// every pose `nonfinite` instead of being refused once.
     pub fn new(min: SVector<T, M>, max: SVector<T, M>) -> Result<Self, Error> {
         if !(finite(min.as_slice()) && finite(max.as_slice())) {
             return Err(Error::NonFinite);
         }
+        let squares_limit = T::max_value().unwrap_or_else(T::one) / T::lit(M.max(1) as f64);
         for i in 0..M {
-            if min[i] < T::zero() || min[i] >= max[i] {
+            if min[i] < T::zero() || min[i] >= max[i] || max[i] * max[i] >= squares_limit {
                 return Err(Error::InvalidLimits);
             }
         }
