@@ -9,12 +9,12 @@ use std::time::Instant;
 use tension_core::{Error, Method};
 
 use crate::output::{ensure_dir, num, time as fmt_time, write_atomic, write_bytes};
-use crate::plot::{line_plot, LinePlot, Series, PALETTE};
 use crate::robot::{load_robot, LoadedRobot, Model, Query};
 use crate::solve::{count_failure, tension_header};
 use crate::table::{pose_columns, wrench_columns};
 use crate::trajectory::{Sample, Waypoints};
 use crate::CliError;
+use cdpr_plot::{line_plot, LinePlot, Series, PALETTE};
 
 /// Most samples a run may have (memory and time stay bounded).
 pub const MAX_SAMPLES: usize = 2_000_000;

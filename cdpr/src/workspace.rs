@@ -19,9 +19,9 @@ use std::time::{Duration, Instant};
 use tension_core::{Error, Method, RobotKind};
 
 use crate::output::{ensure_dir, num, write_atomic, write_bytes};
-use crate::plot::{line_plot, slices_png, LinePlot, Series, Slice, PALETTE};
 use crate::robot::{load_robot, LoadedRobot, Model, Query};
 use crate::CliError;
+use cdpr_plot::{line_plot, slices_png, LinePlot, Series, Slice, PALETTE};
 
 /// Most grid cells one run may have.
 pub const MAX_CELLS: usize = 50_000_000;
