@@ -9,7 +9,7 @@ use std::time::Instant;
 use tension_core::{Error, Method};
 
 use crate::output::{ensure_dir, num, time as fmt_time, write_atomic, write_bytes};
-use crate::robot::{load_robot, LoadedRobot, Model, Query};
+use crate::robot::{load_robot, method_help, LoadedRobot, Model, Query};
 use crate::solve::{count_failure, tension_header};
 use crate::table::{pose_columns, wrench_columns};
 use crate::trajectory::{Sample, Waypoints};
@@ -20,17 +20,25 @@ use cdpr_plot::{line_plot, LinePlot, Series, PALETTE};
 pub const MAX_SAMPLES: usize = 2_000_000;
 
 /// Arguments of `cdpr trajectory`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct TrajectoryArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Waypoint table.
+    /// Waypoint table: time, then the pose columns.
+    #[arg(long)]
     pub waypoints: PathBuf,
-    /// Method names (empty: every method that applies).
+    /// Methods (empty: every method that applies).
+    #[arg(
+        long = "method",
+        help = method_help("Methods (repeat or separate by commas; default: every method that applies)")
+    )]
     pub methods: Vec<String>,
-    /// Sample rate, Hz.
+    /// Sample rate in Hz.
+    #[arg(long, default_value_t = 1000.0, allow_hyphen_values = true)]
     pub rate: f64,
     /// Output directory.
+    #[arg(long)]
     pub out: PathBuf,
 }
 
@@ -415,15 +423,19 @@ fn write_tensions(path: &Path, times: &[f64], run: &MethodRun, m: usize) -> Resu
 }
 
 /// Arguments of `cdpr compare`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct CompareArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Waypoint table.
+    /// Waypoint table: time, then the pose columns.
+    #[arg(long)]
     pub waypoints: PathBuf,
-    /// Sample rate, Hz.
+    /// Sample rate in Hz.
+    #[arg(long, default_value_t = 1000.0, allow_hyphen_values = true)]
     pub rate: f64,
-    /// CSV to write.
+    /// CSV file to write the table to.
+    #[arg(long, default_value = "compare.csv")]
     pub out: PathBuf,
 }
 

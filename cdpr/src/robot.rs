@@ -36,6 +36,17 @@ pub const SHAPES: &[(usize, usize)] = &[
     (2, 8),
 ];
 
+/// The conventions' method names, from [`Method::ALL`], comma-separated.
+pub fn method_names() -> String {
+    Method::ALL.map(Method::name).join(", ")
+}
+
+/// A `--method` help text: `what`, then every method's name, so that a
+/// method added to `tension-core` appears in the help by itself.
+pub fn method_help(what: &str) -> String {
+    format!("{what}: {}", method_names())
+}
+
 /// A robot file as read, with its path (for messages).
 #[derive(Debug, Clone)]
 pub struct LoadedRobot {
@@ -69,10 +80,7 @@ impl LoadedRobot {
     /// Parses a method name and checks it applies to this robot.
     pub fn method(&self, name: &str) -> Result<Method, CliError> {
         let method = Method::from_name(name).ok_or_else(|| {
-            CliError::input(format!(
-                "--method: unknown method `{name}` (expected one of {})",
-                Method::ALL.map(Method::name).join(", ")
-            ))
+            CliError::input(format!("--method: unknown method `{name}` (expected one of {})", method_names()))
         })?;
         if !method.supports(self.dof(), self.cables()) {
             return Err(CliError::input(format!(

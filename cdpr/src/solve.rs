@@ -4,20 +4,24 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use crate::output::{num, write_atomic};
-use crate::robot::{load_robot, Query};
+use crate::robot::{load_robot, method_help, Query};
 use crate::table::{read_poses, TimeColumn};
 use crate::CliError;
 
 /// Arguments of `cdpr solve`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct SolveArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Method name.
+    /// Tension method (the conventions' name).
+    #[arg(long, help = method_help("Tension method"))]
     pub method: String,
-    /// Pose table.
+    /// Pose table: [time,]pose columns[,extra wrench columns].
+    #[arg(long)]
     pub poses: PathBuf,
-    /// Tension table to write.
+    /// Tension table to write: [time,]t1,...,tm,status.
+    #[arg(long)]
     pub out: PathBuf,
 }
 

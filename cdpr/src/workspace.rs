@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 use tension_core::{Error, Method, RobotKind};
 
 use crate::output::{ensure_dir, num, write_atomic, write_bytes};
-use crate::robot::{load_robot, LoadedRobot, Model, Query};
+use crate::robot::{load_robot, method_help, LoadedRobot, Model, Query};
 use crate::CliError;
 use cdpr_plot::{line_plot, slices_png, LinePlot, Series, Slice, PALETTE};
 
@@ -27,25 +27,38 @@ use cdpr_plot::{line_plot, slices_png, LinePlot, Series, Slice, PALETTE};
 pub const MAX_CELLS: usize = 50_000_000;
 
 /// Arguments of `cdpr workspace`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct WorkspaceArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Orientation: `rx,ry,rz` (spatial6), `theta` (planar3), none (planar2).
+    /// rx,ry,rz (spatial6) or theta (planar3), radians; default zero.
+    #[arg(long, allow_hyphen_values = true)]
     pub orientation: Option<String>,
-    /// Grid step, m.
+    /// Grid step in metres.
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
     pub step: f64,
     /// Method name (default: barycenter where it applies, else improved-closed-form).
+    #[arg(
+        long,
+        help = method_help("Method (default: barycenter where it applies, else improved-closed-form)")
+    )]
     pub method: Option<String>,
-    /// Payload sweep `a:b:n` (kg added to the platform mass).
+    /// Payload sweep a:b:n, kg added to the platform mass.
+    #[arg(long, allow_hyphen_values = true)]
     pub mass_sweep: Option<String>,
-    /// Box override `x0:x1,y0:y1[,z0:z1]`.
+    /// Box x0:x1,y0:y1[,z0:z1] instead of the anchors' bounding box.
+    #[arg(long, allow_hyphen_values = true)]
     pub bounds: Option<String>,
     /// Worker threads (default: every core).
+    #[arg(long)]
     pub threads: Option<usize>,
-    /// Show a progress bar (only when stderr is a terminal).
+    /// Show a progress bar (only when stderr is a terminal; always asked
+    /// for on the command line).
+    #[arg(skip = true)]
     pub progress: bool,
     /// Output directory.
+    #[arg(long)]
     pub out: PathBuf,
 }
 
