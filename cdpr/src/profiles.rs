@@ -2,15 +2,14 @@
 //! through timed waypoints, with the dynamic (d'Alembert) wrench.
 
 use std::fmt::Write as _;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use tension_core::{Error, Method};
 
-use crate::output::{ensure_dir, num, time as fmt_time, write_atomic, write_bytes};
+use crate::output::{ensure_dir, num, time as fmt_time, write_bytes, write_csv};
 use crate::robot::{load_robot, method_help, LoadedRobot, Model, Query};
-use crate::solve::{count_failure, tension_header};
+use crate::solve::{count_failure, tension_columns, tension_row};
 use crate::table::{pose_columns, wrench_columns};
 use crate::trajectory::{Sample, Waypoints};
 use crate::CliError;
@@ -269,23 +268,19 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
 
     // The sampled trajectory, a pose table (conventions).
     let pose_path = args.out.join("poses.csv");
-    write_atomic(&pose_path, |w: &mut dyn Write| {
-        let mut cols = vec!["time"];
-        cols.extend(pose_columns(robot.kind()));
-        if waypoints.extras.is_some() {
-            cols.extend(wrench_columns(robot.kind()));
-        }
-        writeln!(w, "{}", cols.join(","))?;
-        for s in &samples {
-            let mut line = fmt_time(s.time);
-            for v in s.pose.iter().chain(s.extra.iter().flatten()) {
-                line.push(',');
-                line.push_str(&num(*v));
-            }
-            writeln!(w, "{line}")?;
-        }
-        Ok(())
-    })?;
+    let mut cols = vec!["time"];
+    cols.extend(pose_columns(robot.kind()));
+    if waypoints.extras.is_some() {
+        cols.extend(wrench_columns(robot.kind()));
+    }
+    write_csv(
+        &pose_path,
+        cols,
+        samples.iter().map(|s| {
+            std::iter::once(fmt_time(s.time))
+                .chain(s.pose.iter().chain(s.extra.iter().flatten()).map(|v| num(*v)))
+        }),
+    )?;
     files.push(pose_path);
 
     let mut summary = format!(
@@ -340,22 +335,14 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
 
     // Robustness over time, every method.
     let rob_csv = args.out.join("robustness.csv");
-    write_atomic(&rob_csv, |w: &mut dyn Write| {
-        let mut header = vec!["time".to_string()];
-        header.extend(runs.iter().map(|r| r.method.name().to_string()));
-        writeln!(w, "{}", header.join(","))?;
-        for (k, t) in times.iter().enumerate() {
-            let mut line = fmt_time(*t);
-            for r in &runs {
-                line.push(',');
-                if let Ok(v) = r.results[k] {
-                    line.push_str(&num(v));
-                }
-            }
-            writeln!(w, "{line}")?;
-        }
-        Ok(())
-    })?;
+    write_csv(
+        &rob_csv,
+        std::iter::once("time").chain(runs.iter().map(|r| r.method.name())),
+        times.iter().enumerate().map(|(k, t)| {
+            std::iter::once(fmt_time(*t))
+                .chain(runs.iter().map(move |r| r.results[k].as_ref().map_or(String::new(), |v| num(*v))))
+        }),
+    )?;
     files.push(rob_csv);
     let plot = LinePlot {
         title: format!("{name}: robustness (smallest distance to a limit)"),
@@ -398,28 +385,14 @@ fn bands(intervals: &[(f64, f64)], times: &[f64]) -> Vec<(f64, f64)> {
 }
 
 fn write_tensions(path: &Path, times: &[f64], run: &MethodRun, m: usize) -> Result<(), CliError> {
-    write_atomic(path, |w: &mut dyn Write| {
-        writeln!(w, "{}", tension_header(true, m))?;
-        for (k, t) in times.iter().enumerate() {
-            let mut line = fmt_time(*t);
-            line.push(',');
-            match run.results[k] {
-                Ok(_) => {
-                    for v in &run.tensions[k * m..(k + 1) * m] {
-                        line.push_str(&num(*v));
-                        line.push(',');
-                    }
-                    line.push_str("ok");
-                }
-                Err(e) => {
-                    line.push_str(&",".repeat(m));
-                    line.push_str(e.status());
-                }
-            }
-            writeln!(w, "{line}")?;
-        }
-        Ok(())
-    })
+    write_csv(
+        path,
+        tension_columns(true, m),
+        times.iter().enumerate().map(|(k, t)| {
+            let result = run.results[k].map(|_| ());
+            tension_row(Some(fmt_time(*t)), &run.tensions[k * m..(k + 1) * m], result)
+        }),
+    )
 }
 
 /// Arguments of `cdpr compare`.
@@ -503,28 +476,33 @@ pub fn run_compare(args: &CompareArgs) -> Result<CompareReport, CliError> {
         }
     }
 
-    write_atomic(&args.out, |w: &mut dyn Write| {
-        writeln!(
-            w,
-            "method,samples,solved,failed,robustness_min,robustness_mean,largest_step,median_solve_us,max_solve_us"
-        )?;
-        let opt = |v: Option<f64>| v.map_or(String::new(), num);
-        for (method, s) in &rows {
-            writeln!(
-                w,
-                "{},{},{},{},{},{},{},{},{}",
-                method.name(),
-                s.samples,
-                s.ok,
-                s.samples - s.ok,
+    let opt = |v: Option<f64>| v.map_or(String::new(), num);
+    write_csv(
+        &args.out,
+        [
+            "method",
+            "samples",
+            "solved",
+            "failed",
+            "robustness_min",
+            "robustness_mean",
+            "largest_step",
+            "median_solve_us",
+            "max_solve_us",
+        ],
+        rows.iter().map(|(method, s)| {
+            [
+                method.name().to_string(),
+                s.samples.to_string(),
+                s.ok.to_string(),
+                (s.samples - s.ok).to_string(),
                 opt(s.min_robustness.map(|x| x.0)),
                 opt(s.mean_robustness),
                 opt(s.largest_step.map(|x| x.0)),
                 num(s.solve_time.0 * 1e6),
-                num(s.solve_time.1 * 1e6)
-            )?;
-        }
-        Ok(())
-    })?;
+                num(s.solve_time.1 * 1e6),
+            ]
+        }),
+    )?;
     Ok(CompareReport { table, rows })
 }

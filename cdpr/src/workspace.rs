@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 
 use tension_core::{Error, Method, RobotKind};
 
-use crate::output::{ensure_dir, num, write_atomic, write_bytes};
+use crate::output::{ensure_dir, num, write_bytes, write_csv};
 use crate::robot::{load_robot, method_help, LoadedRobot, Model, Query};
 use crate::CliError;
 use cdpr_plot::{line_plot, slices_png, LinePlot, Series, Slice, PALETTE};
@@ -620,14 +620,12 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
     }
     if !sweep_rows.is_empty() {
         let path = args.out.join("mass-sweep.csv");
-        write_atomic(&path, |w: &mut dyn Write| {
-            let col = if dims == 3 { "volume_m3" } else { "area_m2" };
-            writeln!(w, "payload_kg,mass_kg,{col},share")?;
-            for (p, m, v, s) in &sweep_rows {
-                writeln!(w, "{},{},{},{}", num(*p), num(*m), num(*v), num(*s))?;
-            }
-            Ok(())
-        })?;
+        let col = if dims == 3 { "volume_m3" } else { "area_m2" };
+        write_csv(
+            &path,
+            ["payload_kg", "mass_kg", col, "share"],
+            sweep_rows.iter().map(|(p, m, v, s)| [p, m, v, s].map(|x| num(*x))),
+        )?;
         files.push(path);
         let mut series = Series::from_samples(what, PALETTE[0], sweep_rows.iter().map(|r| (r.0, Some(r.2))));
         series.markers = true;
