@@ -13,29 +13,6 @@ use tension_core::{Error, Method, Motion, Robot, RobotKind, TensionSolver};
 
 use crate::CliError;
 
-/// The (degrees of freedom, cables) shapes this tool is built for.
-pub const SHAPES: &[(usize, usize)] = &[
-    (6, 6),
-    (6, 7),
-    (6, 8),
-    (6, 9),
-    (6, 10),
-    (6, 11),
-    (6, 12),
-    (3, 3),
-    (3, 4),
-    (3, 5),
-    (3, 6),
-    (3, 7),
-    (3, 8),
-    (2, 2),
-    (2, 3),
-    (2, 4),
-    (2, 5),
-    (2, 6),
-    (2, 8),
-];
-
 /// The conventions' method names, from [`Method::ALL`], comma-separated.
 pub fn method_names() -> String {
     Method::ALL.map(Method::name).join(", ")
@@ -279,36 +256,41 @@ impl<const N: usize, const M: usize> ShapeSolver for ShapedSolver<N, M> {
     }
 }
 
-macro_rules! dispatch {
-    ($loaded:expr; $(($n:literal, $m:literal)),* $(,)?) => {{
-        let loaded = $loaded;
-        match (loaded.dof(), loaded.cables()) {
-            $(
-                ($n, $m) => {
-                    let robot = loaded
-                        .file
-                        .to_robot::<f64, $n, $m>()
-                        .map_err(|e| robot_file_error(&loaded.path, &e))?;
-                    Ok(Box::new(Shaped::<$n, $m> { robot }) as Box<dyn Model>)
-                }
-            )*
-            (n, m) => Err(CliError::at(
-                &loaded.path,
-                None,
-                None,
-                &format!("{n} DOF with {m} cables is not supported (supported: {})", supported_shapes()),
-            )),
+/// The shapes this tool is built for: [`SHAPES`], and [`build_model`]
+/// with one monomorphised robot per shape, from one list.
+macro_rules! shapes {
+    ($(($n:literal, $m:literal)),* $(,)?) => {
+        /// The (degrees of freedom, cables) shapes this tool is built for.
+        pub const SHAPES: &[(usize, usize)] = &[$(($n, $m)),*];
+
+        fn build_model(loaded: &LoadedRobot) -> Result<Box<dyn Model>, CliError> {
+            match (loaded.dof(), loaded.cables()) {
+                $(
+                    ($n, $m) => {
+                        let robot = loaded
+                            .file
+                            .to_robot::<f64, $n, $m>()
+                            .map_err(|e| robot_file_error(&loaded.path, &e))?;
+                        Ok(Box::new(Shaped::<$n, $m> { robot }) as Box<dyn Model>)
+                    }
+                )*
+                (n, m) => Err(CliError::at(
+                    &loaded.path,
+                    None,
+                    None,
+                    &format!("{n} DOF with {m} cables is not supported (supported: {})", supported_shapes()),
+                )),
+            }
         }
-    }};
+    };
 }
 
-fn build_model(loaded: &LoadedRobot) -> Result<Box<dyn Model>, CliError> {
-    dispatch!(loaded;
-        (6, 6), (6, 7), (6, 8), (6, 9), (6, 10), (6, 11), (6, 12),
-        (3, 3), (3, 4), (3, 5), (3, 6), (3, 7), (3, 8),
-        (2, 2), (2, 3), (2, 4), (2, 5), (2, 6), (2, 8),
-    )
-}
+#[rustfmt::skip]
+shapes!(
+    (6, 6), (6, 7), (6, 8), (6, 9), (6, 10), (6, 11), (6, 12),
+    (3, 3), (3, 4), (3, 5), (3, 6), (3, 7), (3, 8),
+    (2, 2), (2, 3), (2, 4), (2, 5), (2, 6), (2, 8),
+);
 
 #[cfg(test)]
 mod tests {
