@@ -5,7 +5,9 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use cdpr_integration_tests::{analytic_centre_residual, random_problem, shipped_robot, stationarity_residual};
+use cdpr_integration_tests::{
+    analytic_centre_residual, random_problem, shipped_robot, stationarity_residual,
+};
 use nalgebra::{DVector, SMatrix, SVector};
 use proptest::{prelude::*, test_runner::TestRunner};
 use tension_core::{
