@@ -244,7 +244,9 @@ fn stats_text(s: &RunStats) -> String {
     t
 }
 
-/// Runs `cdpr trajectory`.
+/// Runs `cdpr trajectory`: samples the trajectory, solves every sample with
+/// every method, then writes the pose table, per method its tension table
+/// and plot, the robustness of all, and the summary.
 pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliError> {
     let robot = load_robot(&args.robot)?;
     let methods = robot.method_list(&args.methods)?;
@@ -255,34 +257,8 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
     let runs = solve_samples(model.as_ref(), &methods, &samples);
 
     ensure_dir(&args.out)?;
-    let mut files = vec![];
     let name = &robot.file.name;
-    let t_min = model.t_min();
-    let t_max = model.t_max();
-    let mut hlines: Vec<(f64, String)> = vec![];
-    for (v, label) in t_min.iter().map(|v| (*v, "t_min")).chain(t_max.iter().map(|v| (*v, "t_max"))) {
-        if !hlines.iter().any(|(w, _)| *w == v) {
-            hlines.push((v, format!("{label} = {} N", num(v))));
-        }
-    }
-
-    // The sampled trajectory, a pose table (conventions).
-    let pose_path = args.out.join("poses.csv");
-    let mut cols = vec!["time"];
-    cols.extend(pose_columns(robot.kind()));
-    if waypoints.extras.is_some() {
-        cols.extend(wrench_columns(robot.kind()));
-    }
-    write_csv(
-        &pose_path,
-        cols,
-        samples.iter().map(|s| {
-            std::iter::once(fmt_time(s.time))
-                .chain(s.pose.iter().chain(s.extra.iter().flatten()).map(|v| num(*v)))
-        }),
-    )?;
-    files.push(pose_path);
-
+    let mut files = vec![write_poses(&args.out, &robot, waypoints.extras.is_some(), &samples)?];
     let mut summary = format!(
         "robot: {name} ({}, {} DOF, {m} cables) from {}\nwaypoints: {} ({} waypoints, t = {} s to {} s)\nsamples: {} at {} Hz; time law s(u) = 35u^4 - 84u^5 + 70u^6 - 20u^7 per segment, dynamic wrench\n",
         robot.kind().name(),
@@ -295,57 +271,125 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
         samples.len(),
         args.rate,
     );
+    let limits = limit_lines(model.as_ref());
     for run in &runs {
-        let mname = run.method.name();
         let stats = run.stats(&times, m);
-        let _ = write!(summary, "\n{mname}\n{}", stats_text(&stats));
-
-        let csv = args.out.join(format!("tensions-{mname}.csv"));
-        write_tensions(&csv, &times, run, m)?;
-        files.push(csv);
-
-        let plot = LinePlot {
-            title: format!("{name}: {mname}"),
-            x_label: "time [s]".into(),
-            y_label: "tension [N]".into(),
-            series: (0..m)
-                .map(|i| {
-                    Series::from_samples(
-                        format!("t{}", i + 1),
-                        PALETTE[i % PALETTE.len()],
-                        times
-                            .iter()
-                            .enumerate()
-                            .map(|(k, &t)| (t, run.results[k].is_ok().then(|| run.tensions[k * m + i]))),
-                    )
-                })
-                .collect(),
-            hlines: hlines.clone(),
-            bands: bands(&stats.failed_intervals, &times),
-            band_label: "no tension".into(),
-            include_zero: false,
-        };
-        let (png, svg) = line_plot(&plot, (1100, 600))?;
-        let stem = args.out.join(format!("tensions-{mname}"));
-        write_bytes(&stem.with_extension("png"), &png)?;
-        write_bytes(&stem.with_extension("svg"), svg.as_bytes())?;
-        files.push(stem.with_extension("png"));
-        files.push(stem.with_extension("svg"));
+        let _ = write!(summary, "\n{}\n{}", run.method.name(), stats_text(&stats));
+        files.extend(write_method(&args.out, name, run, &stats, &times, m, &limits)?);
     }
+    files.extend(write_robustness(&args.out, name, &runs, &times)?);
 
-    // Robustness over time, every method.
-    let rob_csv = args.out.join("robustness.csv");
+    let sum_path = args.out.join("summary.txt");
+    write_bytes(&sum_path, summary.as_bytes())?;
+    files.push(sum_path);
+    Ok(TrajectoryReport { summary, files })
+}
+
+/// `poses.csv`: the sampled trajectory, a pose table (conventions).
+fn write_poses(
+    out: &Path,
+    robot: &LoadedRobot,
+    extras: bool,
+    samples: &[Sample],
+) -> Result<PathBuf, CliError> {
+    let path = out.join("poses.csv");
+    let mut cols = vec!["time"];
+    cols.extend(pose_columns(robot.kind()));
+    if extras {
+        cols.extend(wrench_columns(robot.kind()));
+    }
     write_csv(
-        &rob_csv,
+        &path,
+        cols,
+        samples.iter().map(|s| {
+            std::iter::once(fmt_time(s.time))
+                .chain(s.pose.iter().chain(s.extra.iter().flatten()).map(|v| num(*v)))
+        }),
+    )?;
+    Ok(path)
+}
+
+/// The dashed lines of the tension plots: each distinct `t_min` and
+/// `t_max`, labelled with its value.
+fn limit_lines(model: &dyn Model) -> Vec<(f64, String)> {
+    let mut lines: Vec<(f64, String)> = vec![];
+    let lower = model.t_min().into_iter().map(|v| (v, "t_min"));
+    let upper = model.t_max().into_iter().map(|v| (v, "t_max"));
+    for (v, label) in lower.chain(upper) {
+        if !lines.iter().any(|(w, _)| *w == v) {
+            lines.push((v, format!("{label} = {} N", num(v))));
+        }
+    }
+    lines
+}
+
+/// Writes a plot as `STEM.png` and `STEM.svg`; returns both paths.
+fn write_plot(stem: PathBuf, plot: &LinePlot) -> Result<[PathBuf; 2], CliError> {
+    let (png, svg) = line_plot(plot, (1100, 600))?;
+    let (png_path, svg_path) = (stem.with_extension("png"), stem.with_extension("svg"));
+    write_bytes(&png_path, &png)?;
+    write_bytes(&svg_path, svg.as_bytes())?;
+    Ok([png_path, svg_path])
+}
+
+/// One method's `tensions-METHOD.csv`, `.png` and `.svg`: the tension
+/// profiles with the limits, shaded where no tension was found.
+fn write_method(
+    out: &Path,
+    robot_name: &str,
+    run: &MethodRun,
+    stats: &RunStats,
+    times: &[f64],
+    m: usize,
+    limits: &[(f64, String)],
+) -> Result<Vec<PathBuf>, CliError> {
+    let mname = run.method.name();
+    let csv = out.join(format!("tensions-{mname}.csv"));
+    write_tensions(&csv, times, run, m)?;
+    let plot = LinePlot {
+        title: format!("{robot_name}: {mname}"),
+        x_label: "time [s]".into(),
+        y_label: "tension [N]".into(),
+        series: (0..m)
+            .map(|i| {
+                Series::from_samples(
+                    format!("t{}", i + 1),
+                    PALETTE[i % PALETTE.len()],
+                    times
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &t)| (t, run.results[k].is_ok().then(|| run.tensions[k * m + i]))),
+                )
+            })
+            .collect(),
+        hlines: limits.to_vec(),
+        bands: bands(&stats.failed_intervals, times),
+        band_label: "no tension".into(),
+        include_zero: false,
+    };
+    let mut files = vec![csv];
+    files.extend(write_plot(out.join(format!("tensions-{mname}")), &plot)?);
+    Ok(files)
+}
+
+/// `robustness.csv`, `.png` and `.svg`: every method's robustness over time.
+fn write_robustness(
+    out: &Path,
+    robot_name: &str,
+    runs: &[MethodRun],
+    times: &[f64],
+) -> Result<Vec<PathBuf>, CliError> {
+    let csv = out.join("robustness.csv");
+    write_csv(
+        &csv,
         std::iter::once("time").chain(runs.iter().map(|r| r.method.name())),
         times.iter().enumerate().map(|(k, t)| {
             std::iter::once(fmt_time(*t))
                 .chain(runs.iter().map(move |r| r.results[k].as_ref().map_or(String::new(), |v| num(*v))))
         }),
     )?;
-    files.push(rob_csv);
     let plot = LinePlot {
-        title: format!("{name}: robustness (smallest distance to a limit)"),
+        title: format!("{robot_name}: robustness (smallest distance to a limit)"),
         x_label: "time [s]".into(),
         y_label: "robustness [N]".into(),
         series: runs
@@ -365,17 +409,9 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
         include_zero: true,
         ..LinePlot::default()
     };
-    let (png, svg) = line_plot(&plot, (1100, 600))?;
-    let stem = args.out.join("robustness");
-    write_bytes(&stem.with_extension("png"), &png)?;
-    write_bytes(&stem.with_extension("svg"), svg.as_bytes())?;
-    files.push(stem.with_extension("png"));
-    files.push(stem.with_extension("svg"));
-
-    let sum_path = args.out.join("summary.txt");
-    write_bytes(&sum_path, summary.as_bytes())?;
-    files.push(sum_path);
-    Ok(TrajectoryReport { summary, files })
+    let mut files = vec![csv];
+    files.extend(write_plot(out.join("robustness"), &plot)?);
+    Ok(files)
 }
 
 /// Shaded intervals for the failed samples, widened by half a sample.

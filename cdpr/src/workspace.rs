@@ -274,6 +274,7 @@ impl std::ops::Add for CellCounts {
     }
 }
 
+/// Lines of the grid done so far, for the progress bar.
 struct Progress {
     done: AtomicUsize,
     total: usize,
