@@ -64,6 +64,13 @@ impl fmt::Display for CliError {
 
 impl std::error::Error for CliError {}
 
+/// A plot that could not be drawn is the machine's failure, not the input's.
+impl From<cdpr_plot::PlotError> for CliError {
+    fn from(e: cdpr_plot::PlotError) -> Self {
+        Self::other(e.to_string())
+    }
+}
+
 /// Joins the lines of a message with "; " so that every error is one line.
 pub fn one_line(s: &str) -> String {
     s.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join("; ")

@@ -12,7 +12,6 @@
 
 mod error;
 pub mod output;
-pub mod plot;
 pub mod profiles;
 pub mod robot;
 pub mod solve;

@@ -35,6 +35,25 @@ pub fn write_atomic(
     })
 }
 
+/// Writes a CSV table atomically with the `csv` crate: the header, then the
+/// rows, every record (the last one too) ended by a newline.
+pub fn write_csv<H, R>(path: &Path, header: H, rows: impl IntoIterator<Item = R>) -> Result<(), CliError>
+where
+    H: IntoIterator,
+    H::Item: AsRef<[u8]>,
+    R: IntoIterator,
+    R::Item: AsRef<[u8]>,
+{
+    write_atomic(path, |w| {
+        let mut csv = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(w);
+        csv.write_record(header)?;
+        for row in rows {
+            csv.write_record(row)?;
+        }
+        csv.flush()
+    })
+}
+
 /// Writes bytes atomically.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
     write_atomic(path, |w| w.write_all(bytes))

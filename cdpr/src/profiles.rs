@@ -2,35 +2,42 @@
 //! through timed waypoints, with the dynamic (d'Alembert) wrench.
 
 use std::fmt::Write as _;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use tension_core::{Error, Method};
 
-use crate::output::{ensure_dir, num, time as fmt_time, write_atomic, write_bytes};
-use crate::plot::{line_plot, LinePlot, Series, PALETTE};
-use crate::robot::{load_robot, LoadedRobot, Model, Query};
-use crate::solve::{count_failure, tension_header};
+use crate::output::{ensure_dir, num, time as fmt_time, write_bytes, write_csv};
+use crate::robot::{load_robot, method_help, LoadedRobot, Model, Query};
+use crate::solve::{count_failure, tension_columns, tension_row};
 use crate::table::{pose_columns, wrench_columns};
 use crate::trajectory::{Sample, Waypoints};
 use crate::CliError;
+use cdpr_plot::{line_plot, LinePlot, Series, PALETTE};
 
 /// Most samples a run may have (memory and time stay bounded).
 pub const MAX_SAMPLES: usize = 2_000_000;
 
 /// Arguments of `cdpr trajectory`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct TrajectoryArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Waypoint table.
+    /// Waypoint table: time, then the pose columns.
+    #[arg(long)]
     pub waypoints: PathBuf,
-    /// Method names (empty: every method that applies).
+    /// Methods (empty: every method that applies).
+    #[arg(
+        long = "method",
+        help = method_help("Methods (repeat or separate by commas; default: every method that applies)")
+    )]
     pub methods: Vec<String>,
-    /// Sample rate, Hz.
+    /// Sample rate in Hz.
+    #[arg(long, default_value_t = 1000.0, allow_hyphen_values = true)]
     pub rate: f64,
     /// Output directory.
+    #[arg(long)]
     pub out: PathBuf,
 }
 
@@ -237,7 +244,9 @@ fn stats_text(s: &RunStats) -> String {
     t
 }
 
-/// Runs `cdpr trajectory`.
+/// Runs `cdpr trajectory`: samples the trajectory, solves every sample with
+/// every method, then writes the pose table, per method its tension table
+/// and plot, the robustness of all, and the summary.
 pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliError> {
     let robot = load_robot(&args.robot)?;
     let methods = robot.method_list(&args.methods)?;
@@ -248,38 +257,8 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
     let runs = solve_samples(model.as_ref(), &methods, &samples);
 
     ensure_dir(&args.out)?;
-    let mut files = vec![];
     let name = &robot.file.name;
-    let t_min = model.t_min();
-    let t_max = model.t_max();
-    let mut hlines: Vec<(f64, String)> = vec![];
-    for (v, label) in t_min.iter().map(|v| (*v, "t_min")).chain(t_max.iter().map(|v| (*v, "t_max"))) {
-        if !hlines.iter().any(|(w, _)| *w == v) {
-            hlines.push((v, format!("{label} = {} N", num(v))));
-        }
-    }
-
-    // The sampled trajectory, a pose table (conventions).
-    let pose_path = args.out.join("poses.csv");
-    write_atomic(&pose_path, |w: &mut dyn Write| {
-        let mut cols = vec!["time"];
-        cols.extend(pose_columns(robot.kind()));
-        if waypoints.extras.is_some() {
-            cols.extend(wrench_columns(robot.kind()));
-        }
-        writeln!(w, "{}", cols.join(","))?;
-        for s in &samples {
-            let mut line = fmt_time(s.time);
-            for v in s.pose.iter().chain(s.extra.iter().flatten()) {
-                line.push(',');
-                line.push_str(&num(*v));
-            }
-            writeln!(w, "{line}")?;
-        }
-        Ok(())
-    })?;
-    files.push(pose_path);
-
+    let mut files = vec![write_poses(&args.out, &robot, waypoints.extras.is_some(), &samples)?];
     let mut summary = format!(
         "robot: {name} ({}, {} DOF, {m} cables) from {}\nwaypoints: {} ({} waypoints, t = {} s to {} s)\nsamples: {} at {} Hz; time law s(u) = 35u^4 - 84u^5 + 70u^6 - 20u^7 per segment, dynamic wrench\n",
         robot.kind().name(),
@@ -292,65 +271,125 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
         samples.len(),
         args.rate,
     );
+    let limits = limit_lines(model.as_ref());
     for run in &runs {
-        let mname = run.method.name();
         let stats = run.stats(&times, m);
-        let _ = write!(summary, "\n{mname}\n{}", stats_text(&stats));
-
-        let csv = args.out.join(format!("tensions-{mname}.csv"));
-        write_tensions(&csv, &times, run, m)?;
-        files.push(csv);
-
-        let plot = LinePlot {
-            title: format!("{name}: {mname}"),
-            x_label: "time [s]".into(),
-            y_label: "tension [N]".into(),
-            series: (0..m)
-                .map(|i| {
-                    Series::from_samples(
-                        format!("t{}", i + 1),
-                        PALETTE[i % PALETTE.len()],
-                        times
-                            .iter()
-                            .enumerate()
-                            .map(|(k, &t)| (t, run.results[k].is_ok().then(|| run.tensions[k * m + i]))),
-                    )
-                })
-                .collect(),
-            hlines: hlines.clone(),
-            bands: bands(&stats.failed_intervals, &times),
-            band_label: "no tension".into(),
-            include_zero: false,
-        };
-        let (png, svg) = line_plot(&plot, (1100, 600))?;
-        let stem = args.out.join(format!("tensions-{mname}"));
-        write_bytes(&stem.with_extension("png"), &png)?;
-        write_bytes(&stem.with_extension("svg"), svg.as_bytes())?;
-        files.push(stem.with_extension("png"));
-        files.push(stem.with_extension("svg"));
+        let _ = write!(summary, "\n{}\n{}", run.method.name(), stats_text(&stats));
+        files.extend(write_method(&args.out, name, run, &stats, &times, m, &limits)?);
     }
+    files.extend(write_robustness(&args.out, name, &runs, &times)?);
 
-    // Robustness over time, every method.
-    let rob_csv = args.out.join("robustness.csv");
-    write_atomic(&rob_csv, |w: &mut dyn Write| {
-        let mut header = vec!["time".to_string()];
-        header.extend(runs.iter().map(|r| r.method.name().to_string()));
-        writeln!(w, "{}", header.join(","))?;
-        for (k, t) in times.iter().enumerate() {
-            let mut line = fmt_time(*t);
-            for r in &runs {
-                line.push(',');
-                if let Ok(v) = r.results[k] {
-                    line.push_str(&num(v));
-                }
-            }
-            writeln!(w, "{line}")?;
+    let sum_path = args.out.join("summary.txt");
+    write_bytes(&sum_path, summary.as_bytes())?;
+    files.push(sum_path);
+    Ok(TrajectoryReport { summary, files })
+}
+
+/// `poses.csv`: the sampled trajectory, a pose table (conventions).
+fn write_poses(
+    out: &Path,
+    robot: &LoadedRobot,
+    extras: bool,
+    samples: &[Sample],
+) -> Result<PathBuf, CliError> {
+    let path = out.join("poses.csv");
+    let mut cols = vec!["time"];
+    cols.extend(pose_columns(robot.kind()));
+    if extras {
+        cols.extend(wrench_columns(robot.kind()));
+    }
+    write_csv(
+        &path,
+        cols,
+        samples.iter().map(|s| {
+            std::iter::once(fmt_time(s.time))
+                .chain(s.pose.iter().chain(s.extra.iter().flatten()).map(|v| num(*v)))
+        }),
+    )?;
+    Ok(path)
+}
+
+/// The dashed lines of the tension plots: each distinct `t_min` and
+/// `t_max`, labelled with its value.
+fn limit_lines(model: &dyn Model) -> Vec<(f64, String)> {
+    let mut lines: Vec<(f64, String)> = vec![];
+    let lower = model.t_min().into_iter().map(|v| (v, "t_min"));
+    let upper = model.t_max().into_iter().map(|v| (v, "t_max"));
+    for (v, label) in lower.chain(upper) {
+        if !lines.iter().any(|(w, _)| *w == v) {
+            lines.push((v, format!("{label} = {} N", num(v))));
         }
-        Ok(())
-    })?;
-    files.push(rob_csv);
+    }
+    lines
+}
+
+/// Writes a plot as `STEM.png` and `STEM.svg`; returns both paths.
+fn write_plot(stem: PathBuf, plot: &LinePlot) -> Result<[PathBuf; 2], CliError> {
+    let (png, svg) = line_plot(plot, (1100, 600))?;
+    let (png_path, svg_path) = (stem.with_extension("png"), stem.with_extension("svg"));
+    write_bytes(&png_path, &png)?;
+    write_bytes(&svg_path, svg.as_bytes())?;
+    Ok([png_path, svg_path])
+}
+
+/// One method's `tensions-METHOD.csv`, `.png` and `.svg`: the tension
+/// profiles with the limits, shaded where no tension was found.
+fn write_method(
+    out: &Path,
+    robot_name: &str,
+    run: &MethodRun,
+    stats: &RunStats,
+    times: &[f64],
+    m: usize,
+    limits: &[(f64, String)],
+) -> Result<Vec<PathBuf>, CliError> {
+    let mname = run.method.name();
+    let csv = out.join(format!("tensions-{mname}.csv"));
+    write_tensions(&csv, times, run, m)?;
     let plot = LinePlot {
-        title: format!("{name}: robustness (smallest distance to a limit)"),
+        title: format!("{robot_name}: {mname}"),
+        x_label: "time [s]".into(),
+        y_label: "tension [N]".into(),
+        series: (0..m)
+            .map(|i| {
+                Series::from_samples(
+                    format!("t{}", i + 1),
+                    PALETTE[i % PALETTE.len()],
+                    times
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &t)| (t, run.results[k].is_ok().then(|| run.tensions[k * m + i]))),
+                )
+            })
+            .collect(),
+        hlines: limits.to_vec(),
+        bands: bands(&stats.failed_intervals, times),
+        band_label: "no tension".into(),
+        include_zero: false,
+    };
+    let mut files = vec![csv];
+    files.extend(write_plot(out.join(format!("tensions-{mname}")), &plot)?);
+    Ok(files)
+}
+
+/// `robustness.csv`, `.png` and `.svg`: every method's robustness over time.
+fn write_robustness(
+    out: &Path,
+    robot_name: &str,
+    runs: &[MethodRun],
+    times: &[f64],
+) -> Result<Vec<PathBuf>, CliError> {
+    let csv = out.join("robustness.csv");
+    write_csv(
+        &csv,
+        std::iter::once("time").chain(runs.iter().map(|r| r.method.name())),
+        times.iter().enumerate().map(|(k, t)| {
+            std::iter::once(fmt_time(*t))
+                .chain(runs.iter().map(move |r| r.results[k].as_ref().map_or(String::new(), |v| num(*v))))
+        }),
+    )?;
+    let plot = LinePlot {
+        title: format!("{robot_name}: robustness (smallest distance to a limit)"),
         x_label: "time [s]".into(),
         y_label: "robustness [N]".into(),
         series: runs
@@ -370,17 +409,9 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
         include_zero: true,
         ..LinePlot::default()
     };
-    let (png, svg) = line_plot(&plot, (1100, 600))?;
-    let stem = args.out.join("robustness");
-    write_bytes(&stem.with_extension("png"), &png)?;
-    write_bytes(&stem.with_extension("svg"), svg.as_bytes())?;
-    files.push(stem.with_extension("png"));
-    files.push(stem.with_extension("svg"));
-
-    let sum_path = args.out.join("summary.txt");
-    write_bytes(&sum_path, summary.as_bytes())?;
-    files.push(sum_path);
-    Ok(TrajectoryReport { summary, files })
+    let mut files = vec![csv];
+    files.extend(write_plot(out.join("robustness"), &plot)?);
+    Ok(files)
 }
 
 /// Shaded intervals for the failed samples, widened by half a sample.
@@ -390,40 +421,30 @@ fn bands(intervals: &[(f64, f64)], times: &[f64]) -> Vec<(f64, f64)> {
 }
 
 fn write_tensions(path: &Path, times: &[f64], run: &MethodRun, m: usize) -> Result<(), CliError> {
-    write_atomic(path, |w: &mut dyn Write| {
-        writeln!(w, "{}", tension_header(true, m))?;
-        for (k, t) in times.iter().enumerate() {
-            let mut line = fmt_time(*t);
-            line.push(',');
-            match run.results[k] {
-                Ok(_) => {
-                    for v in &run.tensions[k * m..(k + 1) * m] {
-                        line.push_str(&num(*v));
-                        line.push(',');
-                    }
-                    line.push_str("ok");
-                }
-                Err(e) => {
-                    line.push_str(&",".repeat(m));
-                    line.push_str(e.status());
-                }
-            }
-            writeln!(w, "{line}")?;
-        }
-        Ok(())
-    })
+    write_csv(
+        path,
+        tension_columns(true, m),
+        times.iter().enumerate().map(|(k, t)| {
+            let result = run.results[k].map(|_| ());
+            tension_row(Some(fmt_time(*t)), &run.tensions[k * m..(k + 1) * m], result)
+        }),
+    )
 }
 
 /// Arguments of `cdpr compare`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct CompareArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Waypoint table.
+    /// Waypoint table: time, then the pose columns.
+    #[arg(long)]
     pub waypoints: PathBuf,
-    /// Sample rate, Hz.
+    /// Sample rate in Hz.
+    #[arg(long, default_value_t = 1000.0, allow_hyphen_values = true)]
     pub rate: f64,
-    /// CSV to write.
+    /// CSV file to write the table to.
+    #[arg(long, default_value = "compare.csv")]
     pub out: PathBuf,
 }
 
@@ -491,28 +512,33 @@ pub fn run_compare(args: &CompareArgs) -> Result<CompareReport, CliError> {
         }
     }
 
-    write_atomic(&args.out, |w: &mut dyn Write| {
-        writeln!(
-            w,
-            "method,samples,solved,failed,robustness_min,robustness_mean,largest_step,median_solve_us,max_solve_us"
-        )?;
-        let opt = |v: Option<f64>| v.map_or(String::new(), num);
-        for (method, s) in &rows {
-            writeln!(
-                w,
-                "{},{},{},{},{},{},{},{},{}",
-                method.name(),
-                s.samples,
-                s.ok,
-                s.samples - s.ok,
+    let opt = |v: Option<f64>| v.map_or(String::new(), num);
+    write_csv(
+        &args.out,
+        [
+            "method",
+            "samples",
+            "solved",
+            "failed",
+            "robustness_min",
+            "robustness_mean",
+            "largest_step",
+            "median_solve_us",
+            "max_solve_us",
+        ],
+        rows.iter().map(|(method, s)| {
+            [
+                method.name().to_string(),
+                s.samples.to_string(),
+                s.ok.to_string(),
+                (s.samples - s.ok).to_string(),
                 opt(s.min_robustness.map(|x| x.0)),
                 opt(s.mean_robustness),
                 opt(s.largest_step.map(|x| x.0)),
                 num(s.solve_time.0 * 1e6),
-                num(s.solve_time.1 * 1e6)
-            )?;
-        }
-        Ok(())
-    })?;
+                num(s.solve_time.1 * 1e6),
+            ]
+        }),
+    )?;
     Ok(CompareReport { table, rows })
 }

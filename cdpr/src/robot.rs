@@ -8,33 +8,21 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::SVector;
-use robot_file::{RobotFile, RobotFileError};
+use robot_file::{RobotFile, RobotFileError, RobotFileErrorKind};
 use tension_core::{Error, Method, Motion, Robot, RobotKind, TensionSolver};
 
 use crate::CliError;
 
-/// The (degrees of freedom, cables) shapes this tool is built for.
-pub const SHAPES: &[(usize, usize)] = &[
-    (6, 6),
-    (6, 7),
-    (6, 8),
-    (6, 9),
-    (6, 10),
-    (6, 11),
-    (6, 12),
-    (3, 3),
-    (3, 4),
-    (3, 5),
-    (3, 6),
-    (3, 7),
-    (3, 8),
-    (2, 2),
-    (2, 3),
-    (2, 4),
-    (2, 5),
-    (2, 6),
-    (2, 8),
-];
+/// The conventions' method names, from [`Method::ALL`], comma-separated.
+pub fn method_names() -> String {
+    Method::ALL.map(Method::name).join(", ")
+}
+
+/// A `--method` help text: `what`, then every method's name, so that a
+/// method added to `tension-core` appears in the help by itself.
+pub fn method_help(what: &str) -> String {
+    format!("{what}: {}", method_names())
+}
 
 /// A robot file as read, with its path (for messages).
 #[derive(Debug, Clone)]
@@ -69,10 +57,7 @@ impl LoadedRobot {
     /// Parses a method name and checks it applies to this robot.
     pub fn method(&self, name: &str) -> Result<Method, CliError> {
         let method = Method::from_name(name).ok_or_else(|| {
-            CliError::input(format!(
-                "--method: unknown method `{name}` (expected one of {})",
-                Method::ALL.map(Method::name).join(", ")
-            ))
+            CliError::input(format!("--method: unknown method `{name}` (expected one of {})", method_names()))
         })?;
         if !method.supports(self.dof(), self.cables()) {
             return Err(CliError::input(format!(
@@ -114,17 +99,15 @@ impl LoadedRobot {
 }
 
 /// Reads a robot file; every error is one line naming the file and, where
-/// known, the line and column.
+/// known, the line and column (`robot-file` keeps them from `toml`'s spans
+/// and from the part `tension-core` rejects).
 pub fn load_robot(path: &Path) -> Result<LoadedRobot, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::at(path, None, None, &e.to_string()))?;
-    let file = RobotFile::load(path).map_err(|e| robot_file_error(path, &text, &e))?;
-    validate(path, &text, &file)?;
+    let file = RobotFile::load(path).map_err(|e| robot_file_error(path, &e))?;
     let (n, m) = (file.dof(), file.cables.len());
     if !SHAPES.contains(&(n, m)) {
-        let line = find_line(&text, |l| l.starts_with("kind"));
         return Err(CliError::at(
             path,
-            line,
+            Some(file.kind_at.line),
             None,
             &format!(
                 "a {} robot with {m} cables is not supported (supported: {})",
@@ -146,139 +129,16 @@ fn supported_shapes() -> String {
     parts.join("; ")
 }
 
-/// 1-based number of the first line for which `pred(trimmed line)` holds.
-fn find_line(text: &str, pred: impl Fn(&str) -> bool) -> Option<usize> {
-    text.lines().position(|l| pred(l.trim())).map(|i| i + 1)
-}
-
-/// Line of the `k`-th (0-based) `[[cable]]` header.
-fn cable_line(text: &str, k: usize) -> Option<usize> {
-    text.lines().enumerate().filter(|(_, l)| l.trim().starts_with("[[cable]]")).nth(k).map(|(i, _)| i + 1)
-}
-
-/// Line of a `t_min` or `t_max` override inside the `k`-th cable's table.
-fn cable_key_line(text: &str, k: usize) -> Option<usize> {
-    let start = cable_line(text, k)?;
-    text.lines()
-        .enumerate()
-        .skip(start)
-        .take_while(|(_, l)| !l.trim().starts_with('['))
-        .find(|(_, l)| {
-            let l = l.trim();
-            ["t_min", "t_max"]
-                .iter()
-                .any(|key| l.strip_prefix(key).is_some_and(|r| r.trim_start().starts_with('=')))
-        })
-        .map(|(i, _)| i + 1)
-}
-
-fn key_line(text: &str, key: &str) -> Option<usize> {
-    find_line(text, |l| l.strip_prefix(key).is_some_and(|rest| rest.trim_start().starts_with('=')))
-}
-
-/// Turns the `robot-file` crate's error into one line with a position.
-fn robot_file_error(path: &Path, text: &str, e: &RobotFileError) -> CliError {
-    match e {
-        RobotFileError::Io(_, io) => CliError::at(path, None, None, &io.to_string()),
-        RobotFileError::Format(msg) => {
-            let prefix = format!("{}: ", path.display());
-            let msg = msg.strip_prefix(&prefix).unwrap_or(msg);
-            if let Some(pos) = toml_position(msg) {
-                // toml: "TOML parse error at line L, column C", a source
-                // excerpt ("  |", "3 | ...", "  | ^^^"), then the message.
-                let what: Vec<&str> =
-                    msg.lines().skip(1).map(str::trim).filter(|l| !l.is_empty() && !is_excerpt(l)).collect();
-                CliError::at(path, Some(pos.0), Some((pos.1, "")), &what.join("; "))
-            } else if msg.starts_with("unknown kind") {
-                let line = key_line(text, "kind");
-                // 1-based column of the value after `kind =`.
-                let col = line.and_then(|l| {
-                    let s = text.lines().nth(l - 1)?;
-                    let eq = s.find('=')?;
-                    let value = s[eq + 1..].find(|c: char| !c.is_whitespace())?;
-                    Some(s[..eq + 1 + value].chars().count() + 1)
-                });
-                CliError::at(
-                    path,
-                    line,
-                    col.map(|c| (c, "kind")),
-                    &format!("{msg} (expected spatial6, planar3 or planar2)"),
-                )
-            } else {
-                CliError::at(path, None, None, msg)
-            }
-        }
-        RobotFileError::Invalid(what, err) => {
-            CliError::at(path, None, None, &format!("{what}: {}", err.status()))
-        }
-        RobotFileError::Shape { .. } => CliError::at(path, None, None, &e.to_string()),
-    }
-}
-
-fn is_excerpt(line: &str) -> bool {
-    if line.starts_with('|') {
-        return true;
-    }
-    let digits = line.trim_start_matches(|c: char| c.is_ascii_digit());
-    digits.len() < line.len() && digits.trim_start().starts_with('|')
-}
-
-fn toml_position(msg: &str) -> Option<(usize, usize)> {
-    let first = msg.lines().next()?;
-    let rest = &first[first.find("at line ")? + 8..];
-    let (line, rest) = rest.split_once(", column ")?;
-    let col: String = rest.chars().take_while(char::is_ascii_digit).collect();
-    Some((line.trim().parse().ok()?, col.parse().ok()?))
-}
-
-/// Checks the numbers `tension-core` would reject, to say where they are.
-fn validate(path: &Path, text: &str, file: &RobotFile) -> Result<(), CliError> {
-    let bad = |line: Option<usize>, msg: String| Err(CliError::at(path, line, None, &msg));
-    if !file.mass.is_finite() || file.mass < 0.0 {
-        return bad(
-            key_line(text, "mass"),
-            format!("[platform] mass = {} must be finite and >= 0", file.mass),
-        );
-    }
-    let finite3 = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
-    if !finite3(&file.com) || !finite3(&file.gravity) || !file.inertia.iter().all(finite3) {
-        return bad(
-            find_line(text, |l| l.starts_with("[platform]")),
-            "[platform] holds a number that is not finite".into(),
-        );
-    }
-    if let Some(w) = file.winch {
-        if !w.iter().all(|x| x.is_finite() && *x > 0.0) || w[2] > 1.0 {
-            return bad(
-                find_line(text, |l| l.starts_with("[winch]")),
-                "[winch]: drum_radius, gear_ratio, efficiency, torque_max must be positive, efficiency at most 1".into(),
-            );
-        }
-    }
-    for (k, c) in file.cables.iter().enumerate() {
-        if !finite3(&c.anchor) || !finite3(&c.attach) {
-            return bad(cable_line(text, k), format!("cable {}: anchor and attach must be finite", k + 1));
-        }
-        if !(c.t_min.is_finite() && c.t_max.is_finite() && c.t_min >= 0.0 && c.t_min < c.t_max) {
-            let msg = format!("limits t_min = {}, t_max = {} need 0 <= t_min < t_max", c.t_min, c.t_max);
-            return match cable_key_line(text, k) {
-                Some(line) => bad(Some(line), format!("cable {}: {msg}", k + 1)),
-                None => bad(find_line(text, |l| l.starts_with("[limits]")), format!("[limits]: {msg}")),
-            };
-        }
-    }
-    if file.cables.len() < file.dof() {
-        return bad(
-            None,
-            format!(
-                "a {} robot needs at least {} cables, the file has {}",
-                file.kind.name(),
-                file.dof(),
-                file.cables.len()
-            ),
-        );
-    }
-    Ok(())
+/// The `robot-file` crate's error as one line: `FILE, line L, column C
+/// (kind): MESSAGE`, the value's name only for `kind`.
+fn robot_file_error(path: &Path, e: &RobotFileError) -> CliError {
+    let name = match e.kind {
+        RobotFileErrorKind::UnknownKind(_) => "kind",
+        _ => "",
+    };
+    let line = e.at.map(|at| at.line);
+    let column = e.at.and_then(|at| at.column).map(|c| (c, name));
+    CliError::at(path, line, column, &e.kind.to_string())
 }
 
 /// One pose to solve: the pose, an optional extra external wrench and
@@ -396,49 +256,45 @@ impl<const N: usize, const M: usize> ShapeSolver for ShapedSolver<N, M> {
     }
 }
 
-macro_rules! dispatch {
-    ($loaded:expr; $(($n:literal, $m:literal)),* $(,)?) => {{
-        let loaded = $loaded;
-        match (loaded.dof(), loaded.cables()) {
-            $(
-                ($n, $m) => {
-                    let robot = loaded
-                        .file
-                        .to_robot::<f64, $n, $m>()
-                        .map_err(|e| robot_file_error(&loaded.path, "", &e))?;
-                    Ok(Box::new(Shaped::<$n, $m> { robot }) as Box<dyn Model>)
-                }
-            )*
-            (n, m) => Err(CliError::at(
-                &loaded.path,
-                None,
-                None,
-                &format!("{n} DOF with {m} cables is not supported (supported: {})", supported_shapes()),
-            )),
+/// The shapes this tool is built for: [`SHAPES`], and [`build_model`]
+/// with one monomorphised robot per shape, from one list.
+macro_rules! shapes {
+    ($(($n:literal, $m:literal)),* $(,)?) => {
+        /// The (degrees of freedom, cables) shapes this tool is built for.
+        pub const SHAPES: &[(usize, usize)] = &[$(($n, $m)),*];
+
+        fn build_model(loaded: &LoadedRobot) -> Result<Box<dyn Model>, CliError> {
+            match (loaded.dof(), loaded.cables()) {
+                $(
+                    ($n, $m) => {
+                        let robot = loaded
+                            .file
+                            .to_robot::<f64, $n, $m>()
+                            .map_err(|e| robot_file_error(&loaded.path, &e))?;
+                        Ok(Box::new(Shaped::<$n, $m> { robot }) as Box<dyn Model>)
+                    }
+                )*
+                (n, m) => Err(CliError::at(
+                    &loaded.path,
+                    None,
+                    None,
+                    &format!("{n} DOF with {m} cables is not supported (supported: {})", supported_shapes()),
+                )),
+            }
         }
-    }};
+    };
 }
 
-fn build_model(loaded: &LoadedRobot) -> Result<Box<dyn Model>, CliError> {
-    dispatch!(loaded;
-        (6, 6), (6, 7), (6, 8), (6, 9), (6, 10), (6, 11), (6, 12),
-        (3, 3), (3, 4), (3, 5), (3, 6), (3, 7), (3, 8),
-        (2, 2), (2, 3), (2, 4), (2, 5), (2, 6), (2, 8),
-    )
-}
+#[rustfmt::skip]
+shapes!(
+    (6, 6), (6, 7), (6, 8), (6, 9), (6, 10), (6, 11), (6, 12),
+    (3, 3), (3, 4), (3, 5), (3, 6), (3, 7), (3, 8),
+    (2, 2), (2, 3), (2, 4), (2, 5), (2, 6), (2, 8),
+);
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn toml_positions_are_parsed() {
-        let msg = "TOML parse error at line 3, column 7\n  |\n3 | mass = \"x\"\n  |       ^^^\ninvalid type: string \"x\", expected f64\n";
-        assert_eq!(toml_position(msg), Some((3, 7)));
-        assert!(is_excerpt("3 | mass = \"x\""));
-        assert!(is_excerpt("|       ^^^"));
-        assert!(!is_excerpt("invalid type: string \"x\", expected f64"));
-    }
 
     #[test]
     fn every_shape_dispatches() {

@@ -1,23 +1,27 @@
 //! `cdpr solve`: the tensions of every pose of a table (conventions: CSV in and out).
 
-use std::io::Write;
 use std::path::PathBuf;
 
-use crate::output::{num, write_atomic};
-use crate::robot::{load_robot, Query};
+use crate::output::{num, write_csv};
+use crate::robot::{load_robot, method_help, Query};
 use crate::table::{read_poses, TimeColumn};
 use crate::CliError;
+use tension_core::Error;
 
 /// Arguments of `cdpr solve`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct SolveArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Method name.
+    /// Tension method (the conventions' name).
+    #[arg(long, help = method_help("Tension method"))]
     pub method: String,
-    /// Pose table.
+    /// Pose table: [time,]pose columns[,extra wrench columns].
+    #[arg(long)]
     pub poses: PathBuf,
-    /// Tension table to write.
+    /// Tension table to write: [time,]t1,...,tm,status.
+    #[arg(long)]
     pub out: PathBuf,
 }
 
@@ -62,49 +66,46 @@ pub fn run(args: &SolveArgs) -> Result<SolveReport, CliError> {
     let mut solver = model.solver(method);
     let mut tensions = vec![0.0; m];
     let mut report = SolveReport { rows: table.rows.len(), ok: 0, failures: vec![] };
-    let mut lines = Vec::with_capacity(table.rows.len());
+    let mut rows = Vec::with_capacity(table.rows.len());
     for row in &table.rows {
         let query = Query { pose: &row.pose, extra: row.extra.as_deref(), motion: None };
-        let mut line = String::new();
-        if let Some((text, _)) = &row.time {
-            line.push_str(text);
-            line.push(',');
+        let result = solver.solve(&query, &mut tensions);
+        match &result {
+            Ok(_) => report.ok += 1,
+            Err(e) => count_failure(&mut report.failures, e.status()),
         }
-        match solver.solve(&query, &mut tensions) {
-            Ok(_) => {
-                report.ok += 1;
-                for t in &tensions {
-                    line.push_str(&num(*t));
-                    line.push(',');
-                }
-                line.push_str("ok");
-            }
-            Err(e) => {
-                count_failure(&mut report.failures, e.status());
-                line.push_str(&",".repeat(m));
-                line.push_str(e.status());
-            }
-        }
-        lines.push(line);
+        let time = row.time.as_ref().map(|(text, _)| text.clone());
+        rows.push(tension_row(time, &tensions, result.map(|_| ())));
     }
-    let header = tension_header(table.has_time, m);
-    write_atomic(&args.out, |w: &mut dyn Write| {
-        writeln!(w, "{header}")?;
-        for l in &lines {
-            writeln!(w, "{l}")?;
-        }
-        Ok(())
-    })?;
+    write_csv(&args.out, tension_columns(table.has_time, m), rows)?;
     Ok(report)
 }
 
 /// The conventions' tension table header: `[time,]t1,...,tm,status`.
-pub fn tension_header(time: bool, m: usize) -> String {
+pub fn tension_columns(time: bool, m: usize) -> Vec<String> {
     let mut cols: Vec<String> = Vec::with_capacity(m + 2);
     if time {
         cols.push("time".into());
     }
     cols.extend((1..=m).map(|i| format!("t{i}")));
     cols.push("status".into());
-    cols.join(",")
+    cols
+}
+
+/// One row of a tension table: `[time,]t1,...,tm,status`, the tensions
+/// empty where the status is not `ok`.
+pub fn tension_row(time: Option<String>, tensions: &[f64], result: Result<(), Error>) -> Vec<String> {
+    let mut row = Vec::with_capacity(tensions.len() + 2);
+    row.extend(time);
+    match result {
+        Ok(()) => {
+            row.extend(tensions.iter().map(|t| num(*t)));
+            row.push("ok".into());
+        }
+        Err(e) => {
+            row.extend(std::iter::repeat_n(String::new(), tensions.len()));
+            row.push(e.status().into());
+        }
+    }
+    row
 }

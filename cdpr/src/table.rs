@@ -1,5 +1,6 @@
-//! The conventions' pose tables (CSV, comma-separated, one header line): reading
-//! with errors that name the file, the line and the column.
+//! The conventions' pose tables (CSV, comma-separated, one header line): read
+//! with the `csv` crate, with errors that name the file, the line and the
+//! column.
 
 use std::path::{Path, PathBuf};
 
@@ -55,21 +56,41 @@ pub fn read_csv(path: &Path) -> Result<RawTable, CliError> {
     parse_csv(path, &text)
 }
 
-/// Splits CSV text (see [`read_csv`]).
+/// Splits CSV text (see [`read_csv`]): fields trimmed, rows of any width
+/// (checked against the header by the caller), blank lines skipped.
 pub fn parse_csv(path: &Path, text: &str) -> Result<RawTable, CliError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text
-        .split('\n')
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
-        .filter(|(_, l)| !l.trim().is_empty());
-    let split = |l: &str| l.split(',').map(|f| f.trim().to_string()).collect();
-    let (header_line, header) = match lines.next() {
-        Some((n, l)) => (n, split(l)),
-        None => return Err(CliError::at(path, None, None, "empty file, expected a header line")),
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    // A record's position is where the reader started on it, before the
+    // empty lines it skips: its line is that of its first other byte.
+    let line_at = |p: &csv::Position| {
+        let bytes = text.as_bytes();
+        let start = p.byte() as usize;
+        let skipped = bytes[start..].iter().take_while(|&&b| b == b'\n' || b == b'\r').count();
+        bytes[..start + skipped].iter().filter(|&&b| b == b'\n').count() + 1
     };
-    let rows = lines.map(|(line, l)| RawRow { line, fields: split(l) }).collect();
-    Ok(RawTable { path: path.to_path_buf(), header_line, header, rows })
+    let mut lines = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map(line_at);
+            CliError::at(path, line, None, &e.to_string())
+        })?;
+        // A line of blanks is one empty field once trimmed.
+        if record.len() == 1 && record[0].is_empty() {
+            continue;
+        }
+        let line = record.position().map_or(0, line_at);
+        lines.push(RawRow { line, fields: record.iter().map(String::from).collect() });
+    }
+    let mut lines = lines.into_iter();
+    let Some(RawRow { line: header_line, fields: header }) = lines.next() else {
+        return Err(CliError::at(path, None, None, "empty file, expected a header line"));
+    };
+    Ok(RawTable { path: path.to_path_buf(), header_line, header, rows: lines.collect() })
 }
 
 /// Whether the table must have a `time` column.
@@ -273,6 +294,8 @@ mod tests {
         assert_eq!(t.rows[1].pose, vec![5.0, 6.0]);
         assert_eq!(t.rows[1].extra, Some(vec![7.0, 8.0]));
         assert_eq!(t.rows[1].line, 4);
+        let t = parse("\u{feff}x,y\n  \n\"1\",2\r\n", RobotKind::Planar2, TimeColumn::Optional).unwrap();
+        assert_eq!((t.rows[0].line, t.rows[0].pose.clone()), (3, vec![1.0, 2.0]));
     }
 
     #[test]

@@ -11,41 +11,60 @@
 use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
 
 use tension_core::{Error, Method, RobotKind};
 
-use crate::output::{ensure_dir, num, write_atomic, write_bytes};
-use crate::plot::{line_plot, slices_png, LinePlot, Series, Slice, PALETTE};
-use crate::robot::{load_robot, LoadedRobot, Model, Query};
+use crate::output::{ensure_dir, num, write_bytes, write_csv};
+use crate::robot::{load_robot, method_help, LoadedRobot, Model, Query, ShapeSolver};
 use crate::CliError;
+use cdpr_plot::{line_plot, slices_png, LinePlot, Series, Slice, PALETTE};
 
 /// Most grid cells one run may have.
 pub const MAX_CELLS: usize = 50_000_000;
 
+/// Most worker threads `--threads` may ask for (a larger number is an
+/// error, not clamped): more than any machine this runs on has cores, few
+/// enough that the pool's stacks stay small.
+pub const MAX_THREADS: usize = 256;
+
 /// Arguments of `cdpr workspace`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct WorkspaceArgs {
-    /// Robot file.
+    /// Robot description file (TOML).
+    #[arg(long)]
     pub robot: PathBuf,
-    /// Orientation: `rx,ry,rz` (spatial6), `theta` (planar3), none (planar2).
+    /// rx,ry,rz (spatial6) or theta (planar3), radians; default zero.
+    #[arg(long, allow_hyphen_values = true)]
     pub orientation: Option<String>,
-    /// Grid step, m.
+    /// Grid step in metres.
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
     pub step: f64,
     /// Method name (default: barycenter where it applies, else improved-closed-form).
+    #[arg(
+        long,
+        help = method_help("Method (default: barycenter where it applies, else improved-closed-form)")
+    )]
     pub method: Option<String>,
-    /// Payload sweep `a:b:n` (kg added to the platform mass).
+    /// Payload sweep a:b:n, kg added to the platform mass.
+    #[arg(long, allow_hyphen_values = true)]
     pub mass_sweep: Option<String>,
-    /// Box override `x0:x1,y0:y1[,z0:z1]`.
+    /// Box x0:x1,y0:y1[,z0:z1] instead of the anchors' bounding box.
+    #[arg(long, allow_hyphen_values = true)]
     pub bounds: Option<String>,
-    /// Worker threads (default: every core).
+    /// Worker threads, 1 to 256 (default: every core).
+    #[arg(long)]
     pub threads: Option<usize>,
-    /// Show a progress bar (only when stderr is a terminal).
+    /// Show a progress bar (only when stderr is a terminal; always asked
+    /// for on the command line).
+    #[arg(skip = true)]
     pub progress: bool,
     /// Output directory.
+    #[arg(long)]
     pub out: PathBuf,
 }
 
@@ -236,6 +255,26 @@ pub struct GridResult {
     pub other_failures: usize,
 }
 
+/// Cells by outcome, summed over the lines of a grid.
+#[derive(Debug, Clone, Copy, Default)]
+struct CellCounts {
+    feasible: usize,
+    infeasible: usize,
+    other_failures: usize,
+}
+
+impl std::ops::Add for CellCounts {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self {
+            feasible: self.feasible + o.feasible,
+            infeasible: self.infeasible + o.infeasible,
+            other_failures: self.other_failures + o.other_failures,
+        }
+    }
+}
+
+/// Lines of the grid done so far, for the progress bar.
 struct Progress {
     done: AtomicUsize,
     total: usize,
@@ -256,97 +295,104 @@ impl Progress {
             self.start.elapsed().as_secs_f64()
         )
     }
+
+    /// Redraws the bar on stderr every 200 ms until `finished`.
+    fn show_until(&self, finished: &AtomicBool) {
+        let mut err = std::io::stderr();
+        while !finished.load(Ordering::Relaxed) {
+            let _ = write!(err, "{}", self.line());
+            let _ = err.flush();
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        let _ = writeln!(err, "{}", self.line());
+    }
 }
 
-/// Solves every cell centre of the grid (in parallel over `threads`
-/// threads, each line along `x` warm-started from its previous cell).
+/// Solves the cells of line `line` (along `x`) of the grid, warm-started
+/// from cell to cell, writing each robustness into `cells`.
+fn scan_line(
+    solver: &mut dyn ShapeSolver,
+    cables: usize,
+    grid: &Grid,
+    orientation: &[f64],
+    line: usize,
+    cells: &mut [f32],
+) -> CellCounts {
+    let (j, k) = (line % grid.n[1], line / grid.n[1]);
+    let mut tensions = vec![0.0; cables];
+    // The position's coordinates, then the orientation.
+    let mut pose = vec![0.0; grid.dims + orientation.len()];
+    pose[grid.dims..].copy_from_slice(orientation);
+    pose[1] = grid.centre(1, j);
+    if grid.dims == 3 {
+        pose[2] = grid.centre(2, k);
+    }
+    let mut counts = CellCounts::default();
+    solver.reset();
+    for (i, cell) in cells.iter_mut().enumerate() {
+        pose[0] = grid.centre(0, i);
+        match solver.solve(&Query::pose(&pose), &mut tensions) {
+            Ok(r) => {
+                *cell = r as f32;
+                counts.feasible += 1;
+            }
+            Err(Error::Infeasible) => counts.infeasible += 1,
+            Err(_) => counts.other_failures += 1,
+        }
+    }
+    counts
+}
+
+/// Solves every cell centre of the grid on `pool`, one line along `x` per
+/// task, each line warm-started from its previous cell; `mass` replaces
+/// the platform mass (payload sweeps).
 pub fn scan(
     model: &dyn Model,
     method: Method,
     grid: &Grid,
     orientation: &[f64],
     mass: Option<f64>,
-    threads: usize,
+    pool: &rayon::ThreadPool,
     progress: bool,
 ) -> Result<GridResult, CliError> {
-    let nx = grid.n[0];
     let mut values = vec![f32::NAN; grid.cells()];
-    let lines = values.chunks_mut(nx).enumerate();
-    let work = Mutex::new(lines);
     let status = Progress { done: AtomicUsize::new(0), total: grid.n[1] * grid.n[2], start: Instant::now() };
     let finished = AtomicBool::new(false);
-    let counts = Mutex::new((0usize, 0usize, 0usize));
-    let failure: Mutex<Option<Error>> = Mutex::new(None);
-    let threads = threads.max(1);
-    std::thread::scope(|scope| {
+    let new_solver = || -> Result<Box<dyn ShapeSolver>, Error> {
+        let mut solver = model.solver(method);
+        if let Some(mass) = mass {
+            solver.set_mass(mass)?;
+        }
+        Ok(solver)
+    };
+    let counts = std::thread::scope(|scope| {
         if progress {
-            scope.spawn(|| {
-                let mut err = std::io::stderr();
-                while !finished.load(Ordering::Relaxed) {
-                    let _ = write!(err, "{}", status.line());
-                    let _ = err.flush();
-                    std::thread::sleep(Duration::from_millis(200));
-                }
-                let _ = writeln!(err, "{}", status.line());
-            });
+            scope.spawn(|| status.show_until(&finished));
         }
-        let workers: Vec<_> = (0..threads)
-            .map(|_| {
-                scope.spawn(|| {
-                    let mut solver = model.solver(method);
-                    if let Some(mass) = mass {
-                        if let Err(e) = solver.set_mass(mass) {
-                            *failure.lock().expect("no panics") = Some(e);
-                            return;
-                        }
-                    }
-                    let m = model.cables();
-                    let mut tensions = vec![0.0; m];
-                    let mut pose = vec![0.0; model.dof()];
-                    let (mut ok, mut inf, mut other) = (0, 0, 0);
-                    loop {
-                        let next = work.lock().expect("no panics").next();
-                        let Some((line, cells)) = next else { break };
-                        let (j, k) = (line % grid.n[1], line / grid.n[1]);
-                        solver.reset();
-                        for (i, cell) in cells.iter_mut().enumerate() {
-                            pose[0] = grid.centre(0, i);
-                            pose[1] = grid.centre(1, j);
-                            let rest = if grid.dims == 3 {
-                                pose[2] = grid.centre(2, k);
-                                3
-                            } else {
-                                2
-                            };
-                            pose[rest..].copy_from_slice(orientation);
-                            match solver.solve(&Query::pose(&pose), &mut tensions) {
-                                Ok(r) => {
-                                    *cell = r as f32;
-                                    ok += 1;
-                                }
-                                Err(Error::Infeasible) => inf += 1,
-                                Err(_) => other += 1,
-                            }
-                        }
-                        status.done.fetch_add(1, Ordering::Relaxed);
-                    }
-                    let mut c = counts.lock().expect("no panics");
-                    c.0 += ok;
-                    c.1 += inf;
-                    c.2 += other;
+        let counts = pool.install(|| {
+            values
+                .par_chunks_mut(grid.n[0])
+                .enumerate()
+                .map_init(new_solver, |solver, (line, cells)| {
+                    let solver = solver.as_mut().map_err(|e| *e)?;
+                    let counts = scan_line(solver.as_mut(), model.cables(), grid, orientation, line, cells);
+                    status.done.fetch_add(1, Ordering::Relaxed);
+                    Ok(counts)
                 })
-            })
-            .collect();
-        for w in workers {
-            let _ = w.join();
-        }
+                .try_reduce(CellCounts::default, |a, b| Ok(a + b))
+        });
         finished.store(true, Ordering::Relaxed);
+        counts
     });
-    if let Some(e) = failure.into_inner().expect("no panics") {
-        return Err(CliError::input(format!("platform mass {}: {}", mass.unwrap_or(f64::NAN), e.status())));
-    }
-    let (feasible, infeasible, other_failures) = counts.into_inner().expect("no panics");
-    Ok(GridResult { values, feasible, infeasible, other_failures })
+    let counts = counts.map_err(|e: Error| {
+        CliError::input(format!("platform mass {}: {}", mass.unwrap_or(f64::NAN), e.status()))
+    })?;
+    Ok(GridResult {
+        values,
+        feasible: counts.feasible,
+        infeasible: counts.infeasible,
+        other_failures: counts.other_failures,
+    })
 }
 
 /// What `cdpr workspace` found.
@@ -368,8 +414,41 @@ pub struct WorkspaceReport {
     pub files: Vec<PathBuf>,
 }
 
-/// Runs `cdpr workspace`.
-pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
+/// A workspace run with its arguments checked: what to scan and how.
+struct Plan {
+    robot: LoadedRobot,
+    model: Box<dyn Model>,
+    method: Method,
+    orientation: Vec<f64>,
+    /// Payloads of the sweep, kg (empty: no sweep).
+    payloads: Vec<f64>,
+    grid: Grid,
+    threads: usize,
+}
+
+impl Plan {
+    /// `3` for spatial robots, `2` for planar ones.
+    fn dims(&self) -> usize {
+        self.grid.dims
+    }
+
+    /// `volume` or `area`, and its unit.
+    fn measure_name(&self) -> (&'static str, &'static str) {
+        if self.dims() == 3 {
+            ("volume", "m^3")
+        } else {
+            ("area", "m^2")
+        }
+    }
+
+    /// The orientation as text for titles, empty for a point mass.
+    fn orientation_text(&self) -> String {
+        self.orientation.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// Reads the robot and checks every argument before anything is scanned.
+fn plan(args: &WorkspaceArgs) -> Result<Plan, CliError> {
     let robot = load_robot(&args.robot)?;
     let kind = robot.kind();
     let method = match &args.method {
@@ -384,7 +463,14 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
             args.step
         )));
     }
-    let sweep = match &args.mass_sweep {
+    let threads = match args.threads {
+        Some(n) if (1..=MAX_THREADS).contains(&n) => n,
+        Some(n) => {
+            return Err(CliError::input(format!("--threads {n}: expected 1 to {MAX_THREADS} worker threads")))
+        }
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()).min(MAX_THREADS),
+    };
+    let payloads = match &args.mass_sweep {
         Some(s) => parse_sweep(s)?,
         None => vec![],
     };
@@ -404,7 +490,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
     let grid = Grid::new(lo, hi, args.step, dims);
     let model = robot.model()?;
     let base_mass = model.mass();
-    for p in &sweep {
+    for p in &payloads {
         if base_mass + p < 0.0 {
             return Err(CliError::input(format!(
                 "--mass-sweep: payload {p} kg makes the mass {} kg negative",
@@ -412,53 +498,59 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
             )));
         }
     }
-    let threads =
-        args.threads.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
-    let progress = args.progress && std::io::stderr().is_terminal();
+    Ok(Plan { robot, model, method, orientation, payloads, grid, threads })
+}
 
+/// The scans of a run: the nominal robot, then one per payload.
+struct Scans {
+    nominal: GridResult,
+    /// Payload, total mass, volume (area), share of the frame.
+    sweep: Vec<(f64, f64, f64, f64)>,
+    /// Seconds for the nominal grid, and for every grid.
+    seconds: f64,
+    total_seconds: f64,
+}
+
+fn scan_all(plan: &Plan, progress: bool) -> Result<Scans, CliError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(plan.threads)
+        .build()
+        .map_err(|e| CliError::other(format!("worker threads: {e}")))?;
+    let (grid, model, base_mass) = (&plan.grid, plan.model.as_ref(), plan.model.mass());
+    let scan_with = |mass| scan(model, plan.method, grid, &plan.orientation, mass, &pool, progress);
     let start = Instant::now();
-    let result = scan(model.as_ref(), method, &grid, &orientation, None, threads, progress)?;
+    let nominal = scan_with(None)?;
     let seconds = start.elapsed().as_secs_f64();
+    let cells = grid.cells() as f64;
+    let mut sweep = vec![];
+    for &p in &plan.payloads {
+        // Payload 0 is the nominal robot, already scanned.
+        let feasible = if p == 0.0 { nominal.feasible } else { scan_with(Some(base_mass + p))?.feasible };
+        let feasible = feasible as f64;
+        sweep.push((p, base_mass + p, feasible * grid.cell_measure(), feasible / cells));
+    }
+    Ok(Scans { nominal, sweep, seconds, total_seconds: start.elapsed().as_secs_f64() })
+}
+
+/// The text of `summary.txt`.
+fn summary_text(plan: &Plan, scans: &Scans) -> String {
+    let (robot, grid, method, result) = (&plan.robot, &plan.grid, plan.method, &scans.nominal);
+    let (what, unit) = plan.measure_name();
     let cells = grid.cells();
     let measure = result.feasible as f64 * grid.cell_measure();
     let share = result.feasible as f64 / cells as f64;
-    let mut sweep_rows = vec![];
-    for &p in &sweep {
-        // Payload 0 is the nominal robot, already scanned.
-        let feasible = if p == 0.0 {
-            result.feasible
-        } else {
-            scan(model.as_ref(), method, &grid, &orientation, Some(base_mass + p), threads, progress)?
-                .feasible
-        };
-        sweep_rows.push((
-            p,
-            base_mass + p,
-            feasible as f64 * grid.cell_measure(),
-            feasible as f64 / cells as f64,
-        ));
-    }
-    let total_seconds = start.elapsed().as_secs_f64();
-
-    let unit = if dims == 3 { "m^3" } else { "m^2" };
-    let what = if dims == 3 { "volume" } else { "area" };
-    let axes = ["x", "y", "z"];
     let mut summary = format!(
         "robot: {} ({}, {} DOF, {} cables) from {}\nmethod: {} (static wrench: gravity, platform mass {} kg)\norientation: {}\n",
         robot.file.name,
-        kind.name(),
+        robot.kind().name(),
         robot.dof(),
         robot.cables(),
         robot.path.display(),
         method.name(),
-        num(base_mass),
-        if orientation.is_empty() {
-            "none (point mass)".to_string()
-        } else {
-            orientation.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", ")
-        }
+        num(plan.model.mass()),
+        if plan.orientation.is_empty() { "none (point mass)".to_string() } else { plan.orientation_text() }
     );
-    for (k, axis) in axes.iter().enumerate().take(dims) {
+    for (k, axis) in ["x", "y", "z"].iter().enumerate().take(plan.dims()) {
         let _ = writeln!(
             summary,
             "{}: {} m to {} m, {} cells of {:.6} m",
@@ -495,12 +587,19 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
     }
     let _ = writeln!(
         summary,
-        "time: {seconds:.2} s for the grid on {threads} threads ({:.2} us per cell per thread)",
-        seconds * 1e6 * threads as f64 / cells as f64
+        "time: {:.2} s for the grid on {} threads ({:.2} us per cell per thread)",
+        scans.seconds,
+        plan.threads,
+        scans.seconds * 1e6 * plan.threads as f64 / cells as f64
     );
-    if !sweep_rows.is_empty() {
-        let _ = writeln!(summary, "payload sweep: {} grids, {total_seconds:.2} s in all", sweep_rows.len());
-        for (p, m, v, s) in &sweep_rows {
+    if !scans.sweep.is_empty() {
+        let _ = writeln!(
+            summary,
+            "payload sweep: {} grids, {:.2} s in all",
+            scans.sweep.len(),
+            scans.total_seconds
+        );
+        for (p, m, v, s) in &scans.sweep {
             let _ = writeln!(
                 summary,
                 "  payload {:>10} kg (mass {:>10} kg): {what} {v:.6} {unit}, {:.2} %",
@@ -510,30 +609,52 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
             );
         }
     }
+    summary
+}
 
-    ensure_dir(&args.out)?;
-    let mut files = vec![];
-    // Colour scale: the 95th percentile of the robustness, so that a few
-    // cells with large margins do not darken every other one.
-    let mut finite: Vec<f32> = result.values.iter().copied().filter(|v| v.is_finite()).collect();
-    let scale = if finite.is_empty() {
-        1.0
+/// The colour scale of the slices: the 95th percentile of the robustness,
+/// so that a few cells with large margins do not darken every other one.
+fn colour_scale(values: &[f32]) -> f64 {
+    let mut finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.is_empty() {
+        return 1.0;
+    }
+    let k = (finite.len() - 1) * 95 / 100;
+    let (_, v, _) = finite.select_nth_unstable_by(k, f32::total_cmp);
+    let scale = f64::from(*v);
+    if scale > 0.0 {
+        scale
     } else {
-        let k = (finite.len() - 1) * 95 / 100;
-        let (_, v, _) = finite.select_nth_unstable_by(k, f32::total_cmp);
-        f64::from(*v)
-    };
-    let scale = if scale > 0.0 { scale } else { 1.0 };
-    let anchors: Vec<[f64; 3]> = robot.file.cables.iter().map(|c| c.anchor).collect();
+        1.0
+    }
+}
+
+/// One PNG of workspace slices.
+struct Picture {
+    /// File name in the output directory.
+    file: &'static str,
+    title: String,
+    /// Names of the horizontal and vertical axes.
+    axes: (&'static str, &'static str),
+    slices: Vec<Slice>,
+}
+
+/// The workspace pictures: six horizontal slices and a vertical one
+/// (spatial), or the plane (planar).
+fn write_slices(plan: &Plan, result: &GridResult, out: &Path) -> Result<Vec<PathBuf>, CliError> {
+    let (grid, name, method) = (&plan.grid, &plan.robot.file.name, plan.method.name());
+    let scale = colour_scale(&result.values);
+    let anchors: Vec<[f64; 3]> = plan.robot.file.cables.iter().map(|c| c.anchor).collect();
     let (nx, ny, nz) = (grid.n[0], grid.n[1], grid.n[2]);
-    let orient_text = if orientation.is_empty() {
+    let orient = if plan.orientation.is_empty() {
         String::new()
     } else {
-        format!(", orientation ({})", orientation.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", "))
+        format!(", orientation ({})", plan.orientation_text())
     };
-    if dims == 3 {
+    let mut pictures: Vec<Picture> = vec![];
+    if plan.dims() == 3 {
         let levels = nz.min(6);
-        let slices: Vec<Slice> = (0..levels)
+        let horizontal = (0..levels)
             .map(|s| {
                 let k = ((s as f64 + 0.5) * nz as f64 / levels as f64) as usize;
                 let values = result.values[k * nx * ny..(k + 1) * nx * ny].to_vec();
@@ -551,19 +672,8 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
                 }
             })
             .collect();
-        let png = slices_png(
-            &format!(
-                "{}: wrench-feasible workspace, horizontal slices ({}{orient_text})",
-                robot.file.name,
-                method.name()
-            ),
-            ("x", "y"),
-            &slices,
-            scale,
-        )?;
-        let path = args.out.join("slices-xy.png");
-        write_bytes(&path, &png)?;
-        files.push(path);
+        let title = format!("{name}: wrench-feasible workspace, horizontal slices ({method}{orient})");
+        pictures.push(Picture { file: "slices-xy.png", title, axes: ("x", "y"), slices: horizontal });
         let j = ny / 2;
         let values: Vec<f32> = (0..nz)
             .flat_map(|k| {
@@ -571,72 +681,94 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
                 result.values[row..row + nx].to_vec()
             })
             .collect();
-        let slice = Slice {
+        let vertical = Slice {
             title: format!("y = {:.3} m", grid.centre(1, j)),
             x: (grid.lo[0], grid.hi[0], nx),
             y: (grid.lo[2], grid.hi[2], nz),
             values,
             marks: anchors.iter().map(|a| (a[0], a[2])).collect(),
         };
-        let png = slices_png(
-            &format!("{}: vertical slice ({}{orient_text})", robot.file.name, method.name()),
-            ("x", "z"),
-            &[slice],
-            scale,
-        )?;
-        let path = args.out.join("slice-xz.png");
-        write_bytes(&path, &png)?;
-        files.push(path);
+        let title = format!("{name}: vertical slice ({method}{orient})");
+        pictures.push(Picture { file: "slice-xz.png", title, axes: ("x", "z"), slices: vec![vertical] });
     } else {
-        let slice = Slice {
+        let measure = result.feasible as f64 * grid.cell_measure();
+        let share = result.feasible as f64 / grid.cells() as f64;
+        let plane = Slice {
             title: format!("area {measure:.4} m^2, {:.1} % of the frame", share * 100.0),
             x: (grid.lo[0], grid.hi[0], nx),
             y: (grid.lo[1], grid.hi[1], ny),
             values: result.values.clone(),
             marks: anchors.iter().map(|a| (a[0], a[1])).collect(),
         };
-        let png = slices_png(
-            &format!("{}: wrench-feasible workspace ({}{orient_text})", robot.file.name, method.name()),
-            ("x", "y"),
-            &[slice],
-            scale,
-        )?;
-        let path = args.out.join("workspace.png");
-        write_bytes(&path, &png)?;
+        let title = format!("{name}: wrench-feasible workspace ({method}{orient})");
+        pictures.push(Picture { file: "workspace.png", title, axes: ("x", "y"), slices: vec![plane] });
+    }
+    let mut files = vec![];
+    for p in pictures {
+        let path = out.join(p.file);
+        write_bytes(&path, &slices_png(&p.title, p.axes, &p.slices, scale)?)?;
         files.push(path);
     }
-    if !sweep_rows.is_empty() {
-        let path = args.out.join("mass-sweep.csv");
-        write_atomic(&path, |w: &mut dyn Write| {
-            let col = if dims == 3 { "volume_m3" } else { "area_m2" };
-            writeln!(w, "payload_kg,mass_kg,{col},share")?;
-            for (p, m, v, s) in &sweep_rows {
-                writeln!(w, "{},{},{},{}", num(*p), num(*m), num(*v), num(*s))?;
-            }
-            Ok(())
-        })?;
+    Ok(files)
+}
+
+/// `mass-sweep.csv`, `.png` and `.svg`: the volume (area) against payload.
+fn write_sweep(plan: &Plan, sweep: &[(f64, f64, f64, f64)], out: &Path) -> Result<Vec<PathBuf>, CliError> {
+    let (what, unit) = plan.measure_name();
+    let path = out.join("mass-sweep.csv");
+    let col = if plan.dims() == 3 { "volume_m3" } else { "area_m2" };
+    write_csv(
+        &path,
+        ["payload_kg", "mass_kg", col, "share"],
+        sweep.iter().map(|(p, m, v, s)| [p, m, v, s].map(|x| num(*x))),
+    )?;
+    let mut files = vec![path];
+    let mut series = Series::from_samples(what, PALETTE[0], sweep.iter().map(|r| (r.0, Some(r.2))));
+    series.markers = true;
+    let plot = LinePlot {
+        title: format!("{}: {what} of the wrench-feasible workspace vs payload", plan.robot.file.name),
+        x_label: format!("payload [kg] (platform {} kg)", num(plan.model.mass())),
+        y_label: format!("{what} [{unit}]"),
+        series: vec![series],
+        include_zero: true,
+        ..LinePlot::default()
+    };
+    let (png, svg) = line_plot(&plot, (900, 560))?;
+    for (ext, bytes) in [("png", png), ("svg", svg.into_bytes())] {
+        let path = out.join(format!("mass-sweep.{ext}"));
+        write_bytes(&path, &bytes)?;
         files.push(path);
-        let mut series = Series::from_samples(what, PALETTE[0], sweep_rows.iter().map(|r| (r.0, Some(r.2))));
-        series.markers = true;
-        let plot = LinePlot {
-            title: format!("{}: {what} of the wrench-feasible workspace vs payload", robot.file.name),
-            x_label: format!("payload [kg] (platform {} kg)", num(base_mass)),
-            y_label: format!("{what} [{unit}]"),
-            series: vec![series],
-            include_zero: true,
-            ..LinePlot::default()
-        };
-        let (png, svg) = line_plot(&plot, (900, 560))?;
-        for (ext, bytes) in [("png", png), ("svg", svg.into_bytes())] {
-            let path = args.out.join(format!("mass-sweep.{ext}"));
-            write_bytes(&path, &bytes)?;
-            files.push(path);
-        }
+    }
+    Ok(files)
+}
+
+/// Runs `cdpr workspace`: checks the arguments, scans the grid (and the
+/// payload sweep), then writes the pictures, the sweep and the summary.
+pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
+    let plan = plan(args)?;
+    let progress = args.progress && std::io::stderr().is_terminal();
+    let scans = scan_all(&plan, progress)?;
+    let summary = summary_text(&plan, &scans);
+
+    ensure_dir(&args.out)?;
+    let mut files = write_slices(&plan, &scans.nominal, &args.out)?;
+    if !scans.sweep.is_empty() {
+        files.extend(write_sweep(&plan, &scans.sweep, &args.out)?);
     }
     let path = args.out.join("summary.txt");
     write_bytes(&path, summary.as_bytes())?;
     files.push(path);
-    Ok(WorkspaceReport { summary, measure, share, grid, sweep: sweep_rows, seconds, files })
+
+    let feasible = scans.nominal.feasible as f64;
+    Ok(WorkspaceReport {
+        summary,
+        measure: feasible * plan.grid.cell_measure(),
+        share: feasible / plan.grid.cells() as f64,
+        grid: plan.grid,
+        sweep: scans.sweep,
+        seconds: scans.seconds,
+        files,
+    })
 }
 
 #[cfg(test)]

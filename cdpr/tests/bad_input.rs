@@ -294,6 +294,12 @@ fn cases() -> Vec<Case> {
         ),
         workspace_case("negative step", &["--step", "-1"], vec!["--step -1"]),
         workspace_case(
+            "threads beyond the maximum",
+            &["--threads", "100000"],
+            vec!["--threads 100000: expected 1 to 256 worker threads"],
+        ),
+        workspace_case("no threads", &["--threads", "0"], vec!["--threads 0: expected 1 to 256"]),
+        workspace_case(
             "payload below zero mass",
             &["--mass-sweep", "-30:0:2"],
             vec!["--mass-sweep: payload -30 kg makes the mass -10 kg negative"],

@@ -5,11 +5,7 @@
 mod common;
 
 use common::*;
-
-const ALL: [&str; 5] =
-    ["barycenter", "barycenter-brute", "analytic-centre", "closed-form", "improved-closed-form"];
-/// The methods of issue 7 (any redundancy).
-const MORE: [&str; 5] = ["puncture", "improved-puncture", "min-2-norm", "min-1-norm", "optimally-safe"];
+use tension_core::Method;
 
 /// planar-point-4 at the centre (1.5, 1.5) of its 3 m x 3 m square. The
 /// cables point to the corners, u = (+-1, +-1)/sqrt(2); W 1 = 0 and
@@ -20,7 +16,12 @@ const MORE: [&str; 5] = ["puncture", "improved-puncture", "min-2-norm", "min-1-n
 /// [t_min, t_max - c]^2 (t1 = u, t2 = v, t3 = c + u, t4 = c + v), whose
 /// centroid is u = v = (t_min + t_max - c) / 2. The analytic centre is the
 /// same point (the barrier is symmetric about it), and so is the closed
-/// form (W t_m = 0 and the minimum-norm part is (-c/2, -c/2, c/2, c/2)).
+/// form (W t_m = 0 and the minimum-norm part is (-c/2, -c/2, c/2, c/2)),
+/// and the optimally safe point (the smallest distance to a limit,
+/// min(u - t_min, t_max - c - u, ...), is largest there and only there).
+/// The smallest 1- and 2-norms are at the square's lower corner
+/// u = v = t_min, and so is the puncture: the segment from W^+ f
+/// (u = v = -c/2) to the closed form enters the limits at u = t_min.
 #[test]
 fn point_mass_at_the_centre_every_method_by_hand() {
     let dir = scratch("centre");
@@ -30,7 +31,19 @@ fn point_mass_at_the_centre_every_method_by_hand() {
     let a = (lo + hi - c) / 2.0;
     let b = a + c;
     assert!((a - 155.632_824_765_599_7).abs() < 1e-9);
-    for method in ALL {
+    for method in Method::ALL {
+        let want = match method {
+            Method::Barycenter
+            | Method::BarycenterBrute
+            | Method::AnalyticCentre
+            | Method::ClosedForm
+            | Method::ImprovedClosedForm
+            | Method::OptimallySafe => [a, a, b, b],
+            Method::Puncture | Method::ImprovedPuncture | Method::Min2Norm | Method::Min1Norm => {
+                [lo, lo, lo + c, lo + c]
+            }
+        };
+        let method = method.name();
         let out = format!("{method}.csv");
         let run = cdpr_ok(
             &dir,
@@ -51,21 +64,49 @@ fn point_mass_at_the_centre_every_method_by_hand() {
         assert_eq!(header, ["t1", "t2", "t3", "t4", "status"]);
         assert_eq!(rows.len(), 1);
         let t = tensions(&rows[0], 4).expect("feasible");
-        assert_close(&t, &[a, a, b, b], 1e-7, method);
+        assert_close(&t, &want, 1e-7, method);
     }
+}
+
+/// The tensions of the three-cable point mass below, by hand, at the two
+/// rows of its table (no extra force, then fx = 10): `None` where the
+/// method does not apply (the barycenters need m = n + 2 = 4 cables).
+/// t3 = 19.62 always (slack 18.62 to t_min) and t2 = t1 + fx.
+/// * closed-form, improved-closed-form, analytic-centre:
+///   t_m + W^T (W W^T)^-1 (f - W t_m) = (50.5, 50.5, 19.62), and
+///   (45.5, 55.5, 19.62) with fx = 10 (the analytic centre's barrier in the
+///   one free coordinate is symmetric about the same point).
+/// * min-2-norm and min-1-norm: the smallest t1 with t1, t2 >= 1: (1, 1) and
+///   (1, 11).
+/// * puncture, improved-puncture: from W^+ f = (-fx/2, fx/2, 19.62) towards
+///   the closed form (50.5 - fx/2, 50.5 + fx/2, 19.62), cable 1 enters its
+///   range first: t1 = 1, the same points.
+/// * optimally-safe: cable 3's slack 18.62 is the largest possible smallest
+///   slack; every t1 with t1 - 1 >= 18.62 and 100 - t2 >= 18.62 reaches it,
+///   and the smallest 2-norm among them has t1 = 19.62: (19.62, 19.62) and
+///   (19.62, 29.62).
+fn three_cables_by_hand(method: Method) -> Option<[[f64; 3]; 2]> {
+    Some(match method {
+        Method::Barycenter | Method::BarycenterBrute => return None,
+        Method::ClosedForm | Method::ImprovedClosedForm | Method::AnalyticCentre => {
+            [[50.5, 50.5, 19.62], [45.5, 55.5, 19.62]]
+        }
+        Method::Min2Norm | Method::Min1Norm | Method::Puncture | Method::ImprovedPuncture => {
+            [[1.0, 1.0, 19.62], [1.0, 11.0, 19.62]]
+        }
+        Method::OptimallySafe => [[19.62, 19.62, 19.62], [19.62, 29.62, 19.62]],
+    })
 }
 
 /// A hand-made planar point mass on three cables: anchors (1,0), (-1,0),
 /// (0,1), the point at the origin, so u = (1,0), (-1,0), (0,1) and
 /// W = [[1,-1,0],[0,0,1]]. Gravity (0,-9.81) on 2 kg: f = (0, 19.62), so
-/// t3 = 19.62 and t1 - t2 = -fx_extra. With limits [1, 100] the closed form
-/// is t_m + W^T (W W^T)^-1 (f - W t_m) = (50.5, 50.5, 19.62); with an extra
-/// external force fx = 10, f = (-10, 19.62) and t = (45.5, 55.5, 19.62).
-/// The analytic centre agrees (its barrier in the one free coordinate is
-/// symmetric about the same point). The time column is carried through
-/// as written.
+/// t3 = 19.62 and t1 - t2 = -fx_extra; limits [1, 100]; an extra external
+/// force fx = 10 on the second row. Every method against
+/// [`three_cables_by_hand`]; the time column is carried through as
+/// written; a method that does not apply is a clean error and no file.
 #[test]
-fn point_mass_on_three_cables_closed_form_by_hand() {
+fn point_mass_on_three_cables_every_method_by_hand() {
     let dir = scratch("three");
     std::fs::write(
         dir.join("r.toml"),
@@ -76,64 +117,24 @@ fn point_mass_on_three_cables_closed_form_by_hand() {
     )
     .unwrap();
     std::fs::write(dir.join("p.csv"), "time,x,y,fx,fy\n0.250,0,0,0,0\n1e-3,0,0,10,0\n").unwrap();
-    for method in ["closed-form", "improved-closed-form", "analytic-centre"] {
-        cdpr_ok(
-            &dir,
-            &["solve", "--robot", "r.toml", "--method", method, "--poses", "p.csv", "--out", "o.csv"],
-        );
-        let (header, rows) = read_csv(&dir.join("o.csv"));
+    for method in Method::ALL {
+        let out = format!("{}.csv", method.name());
+        let args =
+            ["solve", "--robot", "r.toml", "--method", method.name(), "--poses", "p.csv", "--out", &out];
+        let Some([first, second]) = three_cables_by_hand(method) else {
+            let run = cdpr(&dir, &args);
+            assert_eq!(run.code, 2, "{}", method.name());
+            assert!(run.stderr.contains("r.toml"), "{}", run.stderr);
+            assert!(!dir.join(&out).exists());
+            continue;
+        };
+        cdpr_ok(&dir, &args);
+        let (header, rows) = read_csv(&dir.join(&out));
         assert_eq!(header, ["time", "t1", "t2", "t3", "status"]);
         assert_eq!(rows[0][0], "0.250");
         assert_eq!(rows[1][0], "1e-3");
-        assert_close(&tensions(&rows[0], 3).unwrap(), &[50.5, 50.5, 19.62], 1e-9, method);
-        assert_close(&tensions(&rows[1], 3).unwrap(), &[45.5, 55.5, 19.62], 1e-9, method);
-    }
-    // The barycenter needs m = n + 2 = 4 cables: a clean error, no file.
-    let run = cdpr(
-        &dir,
-        &["solve", "--robot", "r.toml", "--method", "barycenter", "--poses", "p.csv", "--out", "b.csv"],
-    );
-    assert_eq!(run.code, 2);
-    assert!(run.stderr.contains("r.toml"), "{}", run.stderr);
-    assert!(!dir.join("b.csv").exists());
-}
-
-/// The same three-cable point mass (r = 1) with the methods of issue 7, by
-/// hand. t3 = 19.62 always (slack 18.62 to t_min), t2 = t1 + fx.
-/// * min-2-norm and min-1-norm: the smallest t1 with t1, t2 >= 1: (1, 1) and
-///   (1, 11).
-/// * puncture, improved-puncture: from W^+ f = (-fx/2, fx/2, 19.62) towards
-///   the closed form (50.5 - fx/2, 50.5 + fx/2, 19.62), cable 1 enters its
-///   range first: t1 = 1, the same points.
-/// * optimally-safe: cable 3's slack 18.62 is the largest possible smallest
-///   slack; every t1 with t1 - 1 >= 18.62 and 100 - t2 >= 18.62 reaches it,
-///   and the smallest 2-norm among them has t1 = 19.62: (19.62, 19.62) and
-///   (19.62, 29.62).
-#[test]
-fn point_mass_on_three_cables_more_methods_by_hand() {
-    let dir = scratch("three-more");
-    std::fs::write(
-        dir.join("r.toml"),
-        "name = \"three\"\nkind = \"planar2\"\n[limits]\nt_min = 1.0\nt_max = 100.0\n[platform]\nmass = 2.0\ngravity = [0.0, -9.81, 0.0]\n\
-         [[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
-         [[cable]]\nanchor = [-1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
-         [[cable]]\nanchor = [0.0, 1.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n",
-    )
-    .unwrap();
-    std::fs::write(dir.join("p.csv"), "x,y,fx,fy\n0,0,0,0\n0,0,10,0\n").unwrap();
-    for method in MORE {
-        cdpr_ok(
-            &dir,
-            &["solve", "--robot", "r.toml", "--method", method, "--poses", "p.csv", "--out", "o.csv"],
-        );
-        let (_, rows) = read_csv(&dir.join("o.csv"));
-        let (a, b) = if method == "optimally-safe" {
-            ([19.62, 19.62, 19.62], [19.62, 29.62, 19.62])
-        } else {
-            ([1.0, 1.0, 19.62], [1.0, 11.0, 19.62])
-        };
-        assert_close(&tensions(&rows[0], 3).unwrap(), &a, 1e-9, method);
-        assert_close(&tensions(&rows[1], 3).unwrap(), &b, 1e-9, method);
+        assert_close(&tensions(&rows[0], 3).unwrap(), &first, 1e-9, method.name());
+        assert_close(&tensions(&rows[1], 3).unwrap(), &second, 1e-9, method.name());
     }
 }
 
@@ -242,7 +243,9 @@ fn spatial_rows_balance_the_gravity_wrench() {
         let file = robot_file::RobotFile::load(robot(name)).unwrap();
         let m = file.cables.len();
         let mut solved = 0;
-        for method in ALL.into_iter().chain(MORE) {
+        for method in Method::ALL {
+            let applies = method.supports(file.dof(), m);
+            let method = method.name();
             let run = cdpr(
                 &dir,
                 &[
@@ -257,7 +260,7 @@ fn spatial_rows_balance_the_gravity_wrench() {
                     "o.csv",
                 ],
             );
-            if m != 8 && method.starts_with("barycenter") {
+            if !applies {
                 assert_eq!(run.code, 2, "{name} {method}");
                 continue;
             }

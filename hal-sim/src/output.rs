@@ -1,13 +1,13 @@
 //! What a run leaves behind: a CSV table (one row per 1 ms cycle) and a PNG
-//! plot (pose error and tensions), drawn with the `cdpr` tool's plotting
-//! (`cdpr::plot`, DejaVu Sans embedded), and the figures the tests check.
+//! plot (pose error and tensions), drawn with the host tools' plots
+//! (`cdpr-plot`, DejaVu Sans embedded), and the figures the tests check.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use cdpr::plot::{draw_line_plot, render_png, LinePlot, Series, PALETTE};
 use cdpr_control::protocol::State;
 use cdpr_control::CABLES;
+use cdpr_plot::{draw_line_plot, render_png, LinePlot, Series, PALETTE};
 
 use crate::scenario::{Outcome, Row};
 

@@ -5,37 +5,120 @@
 //! then turned into a robot of a fixed size with [`RobotFile::to_robot`],
 //! which checks that the kind and the number of cables fit `N x M`.
 
+use std::ops::Range;
 use std::path::Path;
 
-use nalgebra::{Matrix3, SVector, Vector3};
+use nalgebra::{Matrix3, SVector, Vector1, Vector3};
 use serde::Deserialize;
 use tension_core::{Platform, Real, Robot, RobotKind, TensionLimits, Winch};
+use toml::Spanned;
 
-/// Why a robot file could not be used.
-#[derive(Debug)]
-pub enum RobotFileError {
-    /// The file could not be read.
-    Io(String, std::io::Error),
-    /// The TOML does not follow the conventions' schema.
-    Format(String),
-    /// The numbers do not make a valid robot (see the inner error).
-    Invalid(String, tension_core::Error),
-    /// The robot's kind or cable count does not match the requested size.
-    Shape { kind: RobotKind, cables: usize, dof: usize, wanted_cables: usize },
+/// A place in a robot file: 1-based line and, for errors about one value,
+/// its 1-based column (in characters, as `toml` counts them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Location {
+    /// Line, from 1.
+    pub line: usize,
+    /// Column, from 1; `None` when the error is about the whole line (a key
+    /// and its value, or a table header).
+    pub column: Option<usize>,
 }
 
-impl std::fmt::Display for RobotFileError {
+impl Location {
+    /// The line and column of byte `offset` in `text`.
+    pub fn of_offset(text: &str, offset: usize) -> Self {
+        let offset = offset.min(text.len());
+        let before = &text.as_bytes()[..offset];
+        let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let column = String::from_utf8_lossy(&before[line_start..]).chars().count() + 1;
+        Self { line, column: Some(column) }
+    }
+
+    /// The line of the start of `span`, without a column.
+    fn line_of(text: &str, span: Range<usize>) -> Self {
+        Self { column: None, ..Self::of_offset(text, span.start) }
+    }
+}
+
+/// What is wrong with a robot file.
+#[derive(Debug)]
+pub enum RobotFileErrorKind {
+    /// The file could not be read.
+    Io(std::io::Error),
+    /// The TOML is malformed or does not follow the conventions' schema
+    /// (`toml`'s message, without its source excerpt).
+    Format(String),
+    /// `kind` is none of the conventions' kinds.
+    UnknownKind(String),
+    /// A value `tension-core` rejects: what and where it is, and the error.
+    Invalid(String, tension_core::Error),
+    /// The robot's kind or cable count does not match the requested size.
+    Shape {
+        /// The file's kind.
+        kind: RobotKind,
+        /// The file's cables.
+        cables: usize,
+        /// Degrees of freedom asked for.
+        dof: usize,
+        /// Cables asked for.
+        wanted_cables: usize,
+    },
+}
+
+/// Why a robot file could not be used, and where in the file.
+#[derive(Debug)]
+pub struct RobotFileError {
+    /// The file, when the error comes from [`RobotFile::load`].
+    pub path: Option<String>,
+    /// Where in the file, when the error is about one place.
+    pub at: Option<Location>,
+    /// What is wrong.
+    pub kind: RobotFileErrorKind,
+}
+
+impl RobotFileError {
+    fn new(kind: RobotFileErrorKind, at: Option<Location>) -> Self {
+        Self { path: None, at, kind }
+    }
+}
+
+impl std::fmt::Display for RobotFileErrorKind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            RobotFileError::Io(path, e) => write!(f, "{path}: {e}"),
-            RobotFileError::Format(msg) => f.write_str(msg),
-            RobotFileError::Invalid(what, e) => write!(f, "{what}: {e}"),
-            RobotFileError::Shape { kind, cables, dof, wanted_cables } => write!(
+            RobotFileErrorKind::Io(e) => write!(f, "{e}"),
+            RobotFileErrorKind::Format(msg) => f.write_str(msg),
+            RobotFileErrorKind::UnknownKind(kind) => {
+                write!(f, "unknown kind `{kind}` (expected ")?;
+                let names =
+                    [RobotKind::Spatial6, RobotKind::Planar3, RobotKind::Planar2].map(RobotKind::name);
+                write!(f, "{} or {})", names[..names.len() - 1].join(", "), names[names.len() - 1])
+            }
+            RobotFileErrorKind::Invalid(what, e) => write!(f, "{what} ({})", e.status()),
+            RobotFileErrorKind::Shape { kind, cables, dof, wanted_cables } => write!(
                 f,
                 "robot is {} with {cables} cables, expected {dof} DOF with {wanted_cables} cables",
                 kind.name()
             ),
         }
+    }
+}
+
+/// `FILE, line L, column C: MESSAGE`, leaving out what is not known.
+impl std::fmt::Display for RobotFileError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut place = self.path.clone().unwrap_or_default();
+        if let Some(at) = self.at {
+            let sep = if place.is_empty() { "" } else { ", " };
+            place.push_str(&format!("{sep}line {}", at.line));
+            if let Some(c) = at.column {
+                place.push_str(&format!(", column {c}"));
+            }
+        }
+        if !place.is_empty() {
+            write!(f, "{place}: ")?;
+        }
+        write!(f, "{}", self.kind)
     }
 }
 
@@ -51,7 +134,7 @@ struct Limits {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct PlatformToml {
-    mass: f64,
+    mass: Spanned<f64>,
     #[serde(default)]
     com: Option<[f64; 3]>,
     gravity: [f64; 3],
@@ -74,21 +157,21 @@ struct CableToml {
     anchor: [f64; 3],
     attach: [f64; 3],
     #[serde(default)]
-    t_min: Option<f64>,
+    t_min: Option<Spanned<f64>>,
     #[serde(default)]
-    t_max: Option<f64>,
+    t_max: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RobotToml {
     name: String,
-    kind: String,
-    limits: Limits,
-    platform: PlatformToml,
+    kind: Spanned<String>,
+    limits: Spanned<Limits>,
+    platform: Spanned<PlatformToml>,
     #[serde(default)]
-    winch: Option<WinchToml>,
-    cable: Vec<CableToml>,
+    winch: Option<Spanned<WinchToml>>,
+    cable: Vec<Spanned<CableToml>>,
 }
 
 /// One cable of a robot file.
@@ -111,6 +194,8 @@ pub struct RobotFile {
     pub name: String,
     /// `kind`.
     pub kind: RobotKind,
+    /// Where `kind` is, for errors about the robot's shape.
+    pub kind_at: Location,
     /// Platform mass, kg.
     pub mass: f64,
     /// Centre of mass, platform frame (zero when absent).
@@ -126,44 +211,124 @@ pub struct RobotFile {
 }
 
 impl RobotFile {
-    /// Reads and parses a file.
+    /// Reads and parses a file; errors name the file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, RobotFileError> {
         let path = path.as_ref();
-        let text =
-            std::fs::read_to_string(path).map_err(|e| RobotFileError::Io(path.display().to_string(), e))?;
-        Self::parse(&text).map_err(|e| match e {
-            RobotFileError::Format(msg) => RobotFileError::Format(format!("{}: {msg}", path.display())),
-            other => other,
-        })
+        let named = |mut e: RobotFileError| {
+            e.path = Some(path.display().to_string());
+            e
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| named(RobotFileError::new(RobotFileErrorKind::Io(e), None)))?;
+        Self::parse(&text).map_err(named)
     }
 
-    /// Parses the TOML text of a robot file.
+    /// Parses the TOML text of a robot file and checks its numbers with
+    /// `tension-core`'s constructors, part by part, so that an error names
+    /// the line of the part that is wrong.
     pub fn parse(text: &str) -> Result<Self, RobotFileError> {
-        let raw: RobotToml = toml::from_str(text).map_err(|e| RobotFileError::Format(e.to_string()))?;
-        let kind = RobotKind::from_name(&raw.kind)
-            .ok_or_else(|| RobotFileError::Format(format!("unknown kind `{}`", raw.kind)))?;
-        if raw.cable.is_empty() {
-            return Err(RobotFileError::Format("no [[cable]]".into()));
-        }
-        Ok(Self {
-            name: raw.name,
+        let raw: RobotToml = toml::from_str(text).map_err(|e| {
+            let at = e.span().map(|s| Location::of_offset(text, s.start));
+            RobotFileError::new(RobotFileErrorKind::Format(e.message().trim().to_string()), at)
+        })?;
+        let kind_at = Location::of_offset(text, raw.kind.span().start);
+        let kind = RobotKind::from_name(raw.kind.get_ref()).ok_or_else(|| {
+            RobotFileError::new(RobotFileErrorKind::UnknownKind(raw.kind.get_ref().clone()), Some(kind_at))
+        })?;
+        let limits = raw.limits.get_ref();
+        let platform = raw.platform.get_ref();
+        let file = Self {
+            name: raw.name.clone(),
             kind,
-            mass: raw.platform.mass,
-            com: raw.platform.com.unwrap_or([0.0; 3]),
-            gravity: raw.platform.gravity,
-            inertia: raw.platform.inertia.unwrap_or([[0.0; 3]; 3]),
-            winch: raw.winch.map(|w| [w.drum_radius, w.gear_ratio, w.efficiency, w.torque_max]),
+            kind_at,
+            mass: *platform.mass.get_ref(),
+            com: platform.com.unwrap_or([0.0; 3]),
+            gravity: platform.gravity,
+            inertia: platform.inertia.unwrap_or([[0.0; 3]; 3]),
+            winch: raw.winch.as_ref().map(|w| {
+                let w = w.get_ref();
+                [w.drum_radius, w.gear_ratio, w.efficiency, w.torque_max]
+            }),
             cables: raw
                 .cable
                 .iter()
-                .map(|c| CableSpec {
-                    anchor: c.anchor,
-                    attach: c.attach,
-                    t_min: c.t_min.unwrap_or(raw.limits.t_min),
-                    t_max: c.t_max.unwrap_or(raw.limits.t_max),
+                .map(|c| {
+                    let c = c.get_ref();
+                    CableSpec {
+                        anchor: c.anchor,
+                        attach: c.attach,
+                        t_min: c.t_min.as_ref().map_or(limits.t_min, |v| *v.get_ref()),
+                        t_max: c.t_max.as_ref().map_or(limits.t_max, |v| *v.get_ref()),
+                    }
                 })
                 .collect(),
-        })
+        };
+        file.check(text, &raw)?;
+        Ok(file)
+    }
+
+    /// Each part through the `tension-core` constructor that accepts or
+    /// rejects it; the rules live there, this only says where.
+    fn check(&self, text: &str, raw: &RobotToml) -> Result<(), RobotFileError> {
+        let invalid = |span: Range<usize>, what: String, e| {
+            Err(RobotFileError::new(
+                RobotFileErrorKind::Invalid(what, e),
+                Some(Location::line_of(text, span)),
+            ))
+        };
+        let platform = raw.platform.get_ref();
+        if let Err(e) = probe_robot(self.platform(), [0.0; 3], [0.0; 3]) {
+            return if !self.mass.is_finite() || e == tension_core::Error::InvalidLimits {
+                let what = format!("[platform] mass = {} must be finite and >= 0", self.mass);
+                invalid(platform.mass.span(), what, e)
+            } else {
+                invalid(raw.platform.span(), "[platform] holds a number that is not finite".into(), e)
+            };
+        }
+        if let (Some(w), Some(spanned)) = (self.winch, &raw.winch) {
+            if let Err(e) = Winch::new(w[0], w[1], w[2], w[3]) {
+                let what = "[winch]: drum_radius, gear_ratio, efficiency, torque_max must be positive, efficiency at most 1";
+                return invalid(spanned.span(), what.into(), e);
+            }
+        }
+        for (k, (c, spanned)) in self.cables.iter().zip(&raw.cable).enumerate() {
+            if let Err(e) = probe_robot(self.platform(), c.anchor, c.attach) {
+                return invalid(
+                    spanned.span(),
+                    format!("cable {}: anchor and attach must be finite", k + 1),
+                    e,
+                );
+            }
+            if let Err(e) = TensionLimits::new(Vector1::new(c.t_min), Vector1::new(c.t_max)) {
+                let rule = format!("limits t_min = {}, t_max = {} need 0 <= t_min < t_max", c.t_min, c.t_max);
+                let own = spanned.get_ref();
+                return match own.t_min.as_ref().or(own.t_max.as_ref()) {
+                    Some(value) => invalid(value.span(), format!("cable {}: {rule}", k + 1), e),
+                    None => invalid(raw.limits.span(), format!("[limits]: {rule}"), e),
+                };
+            }
+        }
+        if self.cables.len() < self.dof() {
+            return Err(RobotFileError::new(
+                RobotFileErrorKind::Format(format!(
+                    "a {} robot needs at least {} cables, the file has {}",
+                    self.kind.name(),
+                    self.dof(),
+                    self.cables.len()
+                )),
+                None,
+            ));
+        }
+        Ok(())
+    }
+
+    fn platform(&self) -> Platform<f64> {
+        Platform {
+            mass: self.mass,
+            com: Vector3::from(self.com),
+            gravity: Vector3::from(self.gravity),
+            inertia: Matrix3::from_fn(|r, c| self.inertia[r][c]),
+        }
     }
 
     /// Degrees of freedom of the robot's kind.
@@ -177,23 +342,25 @@ impl RobotFile {
         &self,
     ) -> Result<Robot<T, N, M>, RobotFileError> {
         if self.kind.dof() != N || self.cables.len() != M {
-            return Err(RobotFileError::Shape {
+            let shape = RobotFileErrorKind::Shape {
                 kind: self.kind,
                 cables: self.cables.len(),
                 dof: N,
                 wanted_cables: M,
-            });
+            };
+            return Err(RobotFileError::new(shape, Some(self.kind_at)));
         }
+        let invalid = |what, e| RobotFileError::new(RobotFileErrorKind::Invalid(what, e), None);
         let v = |a: [f64; 3]| Vector3::new(T::lit(a[0]), T::lit(a[1]), T::lit(a[2]));
         let limits = TensionLimits::new(
             SVector::from_fn(|i, _| T::lit(self.cables[i].t_min)),
             SVector::from_fn(|i, _| T::lit(self.cables[i].t_max)),
         )
-        .map_err(|e| RobotFileError::Invalid(format!("{}: [limits]", self.name), e))?;
+        .map_err(|e| invalid(format!("{}: [limits]", self.name), e))?;
         let winch = match self.winch {
             Some(w) => Some(
                 Winch::new(T::lit(w[0]), T::lit(w[1]), T::lit(w[2]), T::lit(w[3]))
-                    .map_err(|e| RobotFileError::Invalid(format!("{}: [winch]", self.name), e))?,
+                    .map_err(|e| invalid(format!("{}: [winch]", self.name), e))?,
             ),
             None => None,
         };
@@ -211,8 +378,20 @@ impl RobotFile {
             platform,
             winch,
         )
-        .map_err(|e| RobotFileError::Invalid(self.name.clone(), e))
+        .map_err(|e| invalid(self.name.clone(), e))
     }
+}
+
+/// `tension-core`'s checks of a platform and of one cable's geometry: a
+/// one-DOF-short robot (planar2, the cable twice) built from them.
+fn probe_robot(
+    platform: Platform<f64>,
+    anchor: [f64; 3],
+    attach: [f64; 3],
+) -> Result<(), tension_core::Error> {
+    let limits = TensionLimits::uniform(0.0, 1.0)?;
+    let (a, b) = (Vector3::from(anchor), Vector3::from(attach));
+    Robot::<f64, 2, 2>::new(RobotKind::Planar2, [a; 2], [b; 2], limits, platform, None).map(|_| ())
 }
 
 #[cfg(test)]
@@ -247,8 +426,9 @@ attach = [0.0, 0.0, 0.0]
         assert_eq!(file.com, [0.0; 3]);
         let robot = file.to_robot::<f64, 2, 3>().unwrap();
         assert_eq!(robot.limits().min()[0], 2.0);
-        assert!(matches!(file.to_robot::<f64, 2, 4>(), Err(RobotFileError::Shape { .. })));
-        assert!(matches!(file.to_robot::<f64, 3, 3>(), Err(RobotFileError::Shape { .. })));
+        let shape = |e: RobotFileError| matches!(e.kind, RobotFileErrorKind::Shape { .. });
+        assert!(shape(file.to_robot::<f64, 2, 4>().unwrap_err()));
+        assert!(shape(file.to_robot::<f64, 3, 3>().unwrap_err()));
     }
 
     #[test]
@@ -256,10 +436,30 @@ attach = [0.0, 0.0, 0.0]
         let base = "name = \"t\"\nkind = \"planar2\"\n[limits]\nt_min = 1.0\nt_max = 10.0\n[platform]\nmass = 2.0\ngravity = [0.0, -9.81, 0.0]\n[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n";
         assert!(RobotFile::parse(&base.replace("planar2", "hexapod")).is_err());
         assert!(RobotFile::parse(&format!("{base}colour = 3\n")).is_err());
-        let file = RobotFile::parse(&base.replace("t_min = 1.0", "t_min = 20.0")).unwrap();
-        assert!(matches!(
-            file.to_robot::<f64, 2, 1>(),
-            Err(RobotFileError::Invalid(..)) | Err(RobotFileError::Shape { .. })
-        ));
+        let e = RobotFile::parse(&base.replace("t_min = 1.0", "t_min = 20.0")).unwrap_err();
+        assert!(matches!(e.kind, RobotFileErrorKind::Invalid(..)));
+    }
+
+    /// Errors carry `toml`'s span as a line and column, and the checks of
+    /// `tension-core` the line of the part they reject.
+    #[test]
+    fn errors_say_where() {
+        let base = "name = \"t\"\nkind = \"planar2\"\n[limits]\nt_min = 1.0\nt_max = 10.0\n[platform]\nmass = 2.0\ngravity = [0.0, -9.81, 0.0]\n[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n[[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n";
+        let at = |text: &str| RobotFile::parse(text).unwrap_err().at;
+        let loc = |line, column| Some(Location { line, column });
+        assert_eq!(at(&base.replace("t_max = 10.0", "t_max = \"10\"")), loc(5, Some(9)));
+        assert_eq!(at(&base.replace("planar2", "hexapod")), loc(2, Some(8)));
+        assert_eq!(at(&base.replace("t_min = 1.0", "t_min = 20.0")), loc(3, None));
+        assert_eq!(at(&base.replace("mass = 2.0", "mass = -2.0")), loc(7, None));
+        assert_eq!(at(&base.replace("gravity = [0.0, -9.81", "gravity = [0.0, nan")), loc(6, None));
+        assert_eq!(
+            at(&base.replacen("attach = [0.0, 0.0, 0.0]\n", "attach = [0.0, 0.0, inf]\n", 1)),
+            loc(9, None)
+        );
+        let override_first =
+            base.replacen("attach = [0.0, 0.0, 0.0]\n", "attach = [0.0, 0.0, 0.0]\nt_max = 0.5\n", 1);
+        assert_eq!(at(&override_first), loc(12, None));
+        assert_eq!(Location::of_offset("ab\ncé\nx", 7), Location { line: 3, column: Some(1) });
+        assert_eq!(Location::of_offset("ab\ncé\nx", 6), Location { line: 2, column: Some(3) });
     }
 }

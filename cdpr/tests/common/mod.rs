@@ -67,13 +67,15 @@ pub fn cdpr_ok(dir: &Path, args: &[&str]) -> Run {
     run
 }
 
-/// Reads a CSV file: header and rows of fields.
+/// Reads a CSV file (the `csv` crate): header and rows of fields. Every
+/// file the tool writes ends with a newline; this checks that too.
 pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut lines = text.lines();
-    let header = lines.next().expect("header").split(',').map(String::from).collect();
-    let rows = lines.map(|l| l.split(',').map(String::from).collect()).collect();
-    (header, rows)
+    assert!(text.ends_with('\n'), "{} does not end with a newline", path.display());
+    let mut reader = csv::ReaderBuilder::new().has_headers(false).from_reader(text.as_bytes());
+    let mut records = reader.records().map(|r| r.unwrap().iter().map(String::from).collect::<Vec<_>>());
+    let header = records.next().expect("header");
+    (header, records.collect())
 }
 
 /// The tensions of a row of a tension table (`status` last), `None` if not `ok`.

@@ -1,9 +1,15 @@
-//! Pictures: line plots (tension profiles with their limits, robustness,
-//! volume against payload) as PNG and SVG, and workspace slices as PNG.
+//! # cdpr-plot
+//!
+//! The pictures of the host tools (`cdpr`, `hal-sim`): line plots (tension
+//! profiles with their limits, robustness, volume against payload) as PNG
+//! and SVG, and workspace slices as PNG.
 //!
 //! Text is drawn with DejaVu Sans embedded in the binary (the `dejavu`
 //! crate, rendered by plotters' `ab_glyph` backend), so no system font is
 //! needed; PNG files are encoded with the `png` crate.
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use std::error::Error;
 use std::sync::Once;
@@ -11,7 +17,20 @@ use std::sync::Once;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::CliError;
+/// A plot could not be drawn or encoded.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlotError(
+    /// What the drawing or encoding backend reported.
+    pub String,
+);
+
+impl std::fmt::Display for PlotError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "drawing failed: {}", self.0)
+    }
+}
+
+impl Error for PlotError {}
 
 /// The font family name the plots use.
 const FONT: &str = "sans-serif";
@@ -130,12 +149,12 @@ pub fn decimate(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
     out
 }
 
-fn draw_err(e: impl std::fmt::Display) -> CliError {
-    CliError::other(format!("drawing failed: {e}"))
+fn draw_err(e: impl std::fmt::Display) -> PlotError {
+    PlotError(e.to_string())
 }
 
 /// Encodes an RGB8 buffer as PNG.
-pub fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, CliError> {
+pub fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, PlotError> {
     let mut out = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut out, width, height);
@@ -149,7 +168,7 @@ pub fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, CliErr
 }
 
 /// Renders with `draw` into a PNG of `size` pixels.
-pub fn render_png<F>(size: (u32, u32), draw: F) -> Result<Vec<u8>, CliError>
+pub fn render_png<F>(size: (u32, u32), draw: F) -> Result<Vec<u8>, PlotError>
 where
     F: FnOnce(DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), Box<dyn Error>>,
 {
@@ -163,7 +182,7 @@ where
 }
 
 /// Renders with `draw` into an SVG document of `size` pixels.
-pub fn render_svg<F>(size: (u32, u32), draw: F) -> Result<String, CliError>
+pub fn render_svg<F>(size: (u32, u32), draw: F) -> Result<String, PlotError>
 where
     F: FnOnce(DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), Box<dyn Error>>,
 {
@@ -320,7 +339,7 @@ where
 }
 
 /// A line plot as PNG bytes and SVG text.
-pub fn line_plot(plot: &LinePlot, size: (u32, u32)) -> Result<(Vec<u8>, String), CliError> {
+pub fn line_plot(plot: &LinePlot, size: (u32, u32)) -> Result<(Vec<u8>, String), PlotError> {
     let png = render_png(size, |root| draw_line_plot(root, plot))?;
     let svg = render_svg(size, |root| draw_line_plot(root, plot))?;
     Ok((png, svg))
@@ -368,7 +387,7 @@ pub fn slices_png(
     axes: (&str, &str),
     slices: &[Slice],
     scale: f64,
-) -> Result<Vec<u8>, CliError> {
+) -> Result<Vec<u8>, PlotError> {
     let cols = slices.len().clamp(1, 3);
     let rows = slices.len().div_ceil(cols).max(1);
     let (pw, ph) = if slices.len() == 1 { (620u32, 560u32) } else { (460u32, 400u32) };
