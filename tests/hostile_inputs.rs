@@ -182,8 +182,10 @@ fn campaign<T: Real + std::fmt::Debug, const N: usize, const M: usize>(
         prop::collection::vec(perturbation(raw), len),
     );
     let reach = std::cell::Cell::new(Reach::default());
-    let mut runner =
-        proptest::test_runner::TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
+    let mut runner = proptest::test_runner::TestRunner::new(cdpr_integration_tests::persisted_config(
+        cdpr_integration_tests::campaign_cases(cases),
+        file!(),
+    ));
     runner
         .run(&strategy, |(plausible, raw_numbers, perturbed)| {
             let mut r = reach.get();
@@ -233,8 +235,28 @@ fn arbitrary_bits_planar2_f32() {
     assert_reached(campaign::<f32, 2, 4>(RobotKind::Planar2, 3000, |x| x as f32, raw));
 }
 
+/// The other shapes the tools serve: no redundancy, one, and up to six.
+#[test]
+fn arbitrary_bits_other_shapes() {
+    let raw64 = || hostile_f64().boxed();
+    let raw32 = || hostile_f32().prop_map(f64::from).boxed();
+    let at_least = |r: Reach, fraction: usize| {
+        assert!(r.cases_checked * fraction >= r.cases, "too few cases checked: {r:?}");
+    };
+    at_least(campaign::<f64, 6, 7>(RobotKind::Spatial6, 1000, |x| x, raw64()), 10);
+    at_least(campaign::<f64, 6, 10>(RobotKind::Spatial6, 1000, |x| x, raw64()), 4);
+    at_least(campaign::<f32, 6, 12>(RobotKind::Spatial6, 1000, |x| x as f32, raw32()), 4);
+    at_least(campaign::<f32, 3, 4>(RobotKind::Planar3, 1000, |x| x as f32, raw32()), 10);
+    at_least(campaign::<f64, 3, 8>(RobotKind::Planar3, 1000, |x| x, raw64()), 4);
+    at_least(campaign::<f64, 2, 3>(RobotKind::Planar2, 1000, |x| x, raw64()), 10);
+    at_least(campaign::<f32, 2, 6>(RobotKind::Planar2, 1000, |x| x as f32, raw32()), 4);
+    // No redundancy: the robot must be exactly at its tensions; checked,
+    // not required to be often feasible.
+    campaign::<f64, 6, 6>(RobotKind::Spatial6, 500, |x| x, raw64());
+}
+
 proptest! {
-    #![proptest_config(cdpr_integration_tests::persisted_config(3000, file!()))]
+    #![proptest_config(cdpr_integration_tests::persisted_config(cdpr_integration_tests::campaign_cases(3000), file!()))]
 
     #[test]
     fn arbitrary_wrench_matrices(entries in prop::collection::vec(hostile_f64(), 6 * 8 + 6 + 8)) {

@@ -14,6 +14,7 @@ use cdpr_integration_tests::shipped_robot;
 use clarabel::{algebra::CscMatrix, solver::*};
 use nalgebra::{SMatrix, SVector};
 use proptest::prelude::*;
+use tension_core::linalg::WrenchFactorization;
 use tension_core::{solve, Error, Method, PreviousCycle, Real, Robot, TensionLimits, TensionSolver};
 
 /// Whether some `t` with `W t = f` lies within the limits, by clarabel (an
@@ -94,14 +95,17 @@ fn never_falsely_infeasible<T: Real + std::fmt::Debug, const N: usize, const M: 
 macro_rules! shapes {
     ($($name:ident: $n:literal x $m:literal,)*) => {
         proptest! {
-            #![proptest_config(cdpr_integration_tests::persisted_config(64, file!()))]
+            #![proptest_config(cdpr_integration_tests::persisted_config(cdpr_integration_tests::campaign_cases(64), file!()))]
             $(
                 #[test]
                 fn $name((w, f, limits) in feasible_problem::<$n, $m>()) {
                     let a = never_falsely_infeasible::<f64, $n, $m>(&w, &f, &limits);
                     let b = never_falsely_infeasible::<f32, $n, $m>(&w, &f, &limits);
-                    // The methods for any redundancy answer a problem this far inside.
-                    prop_assert!(a >= 4 && b >= 4, "{a} / {b} methods answered");
+                    // The methods for any redundancy answer a problem this far
+                    // inside, unless `W` is singular to the precision (f32 at
+                    // a condition number of 1e5 and more).
+                    let singular_f32 = WrenchFactorization::new(&w.map(|x| x as f32)).is_err();
+                    prop_assert!(a >= 4 && (b >= 4 || singular_f32), "{a} / {b} methods answered");
                 }
             )*
         }
@@ -127,8 +131,10 @@ shapes! {
 /// Random wrenches (feasible or not): where `min-1-norm`, `min-2-norm` or
 /// `optimally-safe` says `infeasible`, clarabel must find no tensions either.
 fn infeasible_agrees_with_the_lp<const N: usize, const M: usize>(cases: u32) {
-    let mut runner =
-        proptest::test_runner::TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
+    let mut runner = proptest::test_runner::TestRunner::new(cdpr_integration_tests::persisted_config(
+        cdpr_integration_tests::campaign_cases(cases),
+        file!(),
+    ));
     let infeasible = std::cell::Cell::new(0usize);
     runner
         .run(&cdpr_integration_tests::random_problem::<N, M>(3.0), |(w, f, limits)| {
@@ -299,8 +305,10 @@ fn analytic_centre_square_meets_the_wrench() {
 fn analytic_centre_agrees_with_the_polygon<T: Real + std::fmt::Debug, const N: usize, const M: usize>(
     cases: u32,
 ) {
-    let mut runner =
-        proptest::test_runner::TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
+    let mut runner = proptest::test_runner::TestRunner::new(cdpr_integration_tests::persisted_config(
+        cdpr_integration_tests::campaign_cases(cases),
+        file!(),
+    ));
     let compared = std::cell::Cell::new(0usize);
     runner
         .run(&cdpr_integration_tests::random_problem::<N, M>(0.3), |(w, f, limits)| {
@@ -320,7 +328,7 @@ fn analytic_centre_agrees_with_the_polygon<T: Real + std::fmt::Debug, const N: u
         })
         .unwrap();
     // The cases, plus the seeds of the file's regression file replayed first.
-    assert!(compared.get() >= cases as usize);
+    assert!(compared.get() >= cdpr_integration_tests::campaign_cases(cases) as usize);
 }
 
 #[test]
@@ -353,4 +361,96 @@ fn analytic_centre_decides_where_its_hessian_rounds_indefinite() {
         solve(Method::AnalyticCentre, &w, &f, &limits, &PreviousCycle::NONE).unwrap_err(),
         Error::Infeasible
     );
+}
+
+/// Open: found by the long campaign (`CDPR_HOSTILE_SCALE=30`), one case in
+/// about 30 000: in `f32`, a feasible set thinner than the walk resolves
+/// (its vertices are crossings of lines closer to parallel than
+/// `tolerance::parallel`, 16 sqrt(eps)) gets no first vertex, and the
+/// barycenter says `infeasible` where the analytic centre finds tensions
+/// 1.2e-4 inside every limit. Ignored until the walk confirms an empty search
+/// with a bounded certificate at a cost the board's infeasible cycles allow.
+#[test]
+#[ignore = "open defect: f32 barycenter on a sub-resolution sliver (see the doc comment)"]
+fn barycenter_f32_thin_sliver_is_not_infeasible() {
+    let columns: [[f64; 6]; 8] = [
+        [
+            0.20171709191219642,
+            -0.6998419605831429,
+            -0.29032785534035477,
+            0.2870638008741426,
+            0.6882149320966248,
+            0.6576455202501448,
+        ],
+        [
+            -0.3091760917332201,
+            0.38692581507184837,
+            -0.5129704188316682,
+            -0.8068994332358671,
+            -0.6884144979504507,
+            -0.03347154803417899,
+        ],
+        [
+            0.14872838630162563,
+            -0.2362834381911492,
+            0.28957386376408134,
+            -0.9130185641742641,
+            -0.47911518146947485,
+            -0.3997888535842228,
+        ],
+        [
+            -0.25435792433455395,
+            0.1264929705047678,
+            0.6871709146246859,
+            0.5372595924038783,
+            -0.4115377698712669,
+            0.10844068997644629,
+        ],
+        [
+            -0.05419609124905241,
+            0.9416534510922419,
+            0.3014822196893252,
+            -0.44039741249282705,
+            -0.042633981680009994,
+            -0.9848963033330776,
+        ],
+        [
+            0.7127053838688437,
+            0.22071489735610245,
+            -0.3774059810006188,
+            0.15517578162631687,
+            0.9450720662116727,
+            -0.15915500079696496,
+        ],
+        [
+            0.8120629490755384,
+            0.9683112167435003,
+            0.9198072582857234,
+            -0.4709397524992795,
+            0.8489359595922702,
+            -0.3832206407619902,
+        ],
+        [
+            0.33900191844029176,
+            0.9386601114927665,
+            0.36040849935655794,
+            0.9620425415261458,
+            0.27052867183767987,
+            -0.42255819341276873,
+        ],
+    ];
+    let w = SMatrix::<f32, 6, 8>::from_fn(|i, j| columns[j][i] as f32);
+    let f = SVector::<f64, 6>::from_row_slice(&[
+        0.9665708181311481,
+        0.9337680467589857,
+        0.6645103168383575,
+        -1.1311703307845686,
+        0.3667504074713265,
+        -0.9920441904896704,
+    ])
+    .map(|x| x as f32);
+    let limits = TensionLimits::uniform(0.0f32, 1.0).unwrap();
+    let centre = solve(Method::AnalyticCentre, &w, &f, &limits, &PreviousCycle::NONE).unwrap();
+    assert!(centre.robustness > 0.0);
+    assert!(solve(Method::Barycenter, &w, &f, &limits, &PreviousCycle::NONE).is_ok());
 }

@@ -197,6 +197,23 @@ fn cases() -> Vec<Case> {
             vec!["r.toml, line 7: [platform] mass = -1 must be finite and >= 0"],
         ),
         solve_case(
+            "negative inertia",
+            good.replace(
+                "mass = 20.0",
+                "mass = 20.0\ninertia = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]",
+            ),
+            poses,
+            "barycenter",
+            vec!["[platform] inertia must be symmetric positive semi-definite (invalid-limits)"],
+        ),
+        solve_case(
+            "limits whose squares overflow",
+            good.replace("t_max = 400.0", "t_max = 1e308"),
+            poses,
+            "barycenter",
+            vec!["[limits]: limits t_min = 50, t_max = 100000000", "(invalid-limits)"],
+        ),
+        solve_case(
             "unsupported cable count",
             seven,
             poses,

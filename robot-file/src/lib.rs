@@ -278,9 +278,13 @@ impl RobotFile {
         };
         let platform = raw.platform.get_ref();
         if let Err(e) = probe_robot(self.platform(), [0.0; 3], [0.0; 3]) {
-            return if !self.mass.is_finite() || e == tension_core::Error::InvalidLimits {
+            let mass_ok = self.mass.is_finite() && self.mass >= 0.0;
+            return if !mass_ok {
                 let what = format!("[platform] mass = {} must be finite and >= 0", self.mass);
                 invalid(platform.mass.span(), what, e)
+            } else if e == tension_core::Error::InvalidLimits {
+                let what = "[platform] inertia must be symmetric positive semi-definite".to_string();
+                invalid(raw.platform.span(), what, e)
             } else {
                 invalid(raw.platform.span(), "[platform] holds a number that is not finite".into(), e)
             };

@@ -6,7 +6,10 @@
 use std::path::PathBuf;
 
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
-use proptest::{prelude::*, test_runner::FileFailurePersistence};
+use proptest::{
+    prelude::*,
+    test_runner::{FileFailurePersistence, RngSeed},
+};
 use robot_file::RobotFile;
 use tension_core::{Real, Robot, TensionLimits};
 
@@ -14,13 +17,31 @@ use tension_core::{Real, Robot, TensionLimits};
 /// `source_file` (pass `file!()`) as `<name>.proptest-regressions`, committed
 /// and replayed first on every machine. (The default, a folder beside the
 /// crate's `lib.rs`, is never found for files under `tests/`.)
+///
+/// The cases come from a fixed seed, so that the test command checks the
+/// same cases on every run; `PROPTEST_RNG_SEED=<n>` (with
+/// `CDPR_HOSTILE_SCALE` for more cases) explores others.
 pub fn persisted_config(cases: u32, source_file: &'static str) -> ProptestConfig {
+    let defaults = ProptestConfig::default();
+    let rng_seed = match defaults.rng_seed {
+        RngSeed::Random => RngSeed::Fixed(20_261_201),
+        chosen => chosen,
+    };
     ProptestConfig {
         cases,
         source_file: Some(source_file),
         failure_persistence: Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions"))),
-        ..ProptestConfig::default()
+        rng_seed,
+        ..defaults
     }
+}
+
+/// `base` cases times `CDPR_HOSTILE_SCALE` (default 1): the hostile
+/// campaigns run short in the test command and as long as asked for, e.g.
+/// `CDPR_HOSTILE_SCALE=100 cargo test --release --test hostile_inputs`.
+pub fn campaign_cases(base: u32) -> u32 {
+    let scale = std::env::var("CDPR_HOSTILE_SCALE").ok().and_then(|s| s.parse::<u32>().ok()).unwrap_or(1);
+    base.saturating_mul(scale.max(1))
 }
 
 /// The repository's `robots/` folder, the one source of robot files.
