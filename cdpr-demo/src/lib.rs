@@ -4,6 +4,8 @@
 //!   the end-to-end test streams;
 //! * [`report`]: the typed records the demo logs, postcard-encoded, for
 //!   `xtask` to decode;
+//! * [`methods`]: which methods the board offers, from their measured
+//!   worst cases against the [`BUDGET`];
 //! * [`BUDGET`], [`EXPECTED_STATES`], the [`exit`] codes: what the demo's
 //!   verdict is made of;
 //! * [`qemu`]: the emulator's machine and its `-icount` setting, which the
@@ -15,6 +17,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod methods;
 pub mod report;
 pub mod trajectory;
 
