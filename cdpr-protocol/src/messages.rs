@@ -47,7 +47,8 @@ pub enum HostMessage {
     /// number `tension_core::Method::wire_id` (0 barycenter, 1 barycenter-brute,
     /// 2 analytic-centre, 3 closed-form, 4 improved-closed-form, 5 puncture,
     /// 6 improved-puncture, 7 min-2-norm, 8 min-1-norm, 9 optimally-safe).
-    /// Accepted in Disabled only.
+    /// Accepted in Disabled only, and only for a method the receiver offers
+    /// (the firmware: those whose worst case fits its step budget).
     SelectMethod(u8),
 }
 

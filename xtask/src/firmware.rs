@@ -80,6 +80,8 @@ pub fn run_demo() -> Result<(), String> {
 /// * TIM2 ticks convert to instructions as the icount relation says;
 /// * the safety states follow [`EXPECTED_STATES`]; the stack stays within
 ///   its limit;
+/// * every method's measured worst solve is within the table the board's
+///   offer of methods is derived from (`cdpr_demo::methods`);
 /// * a panic and a HardFault stop the drives first;
 /// * the product fits the chip and passes the end-to-end serial test.
 ///
