@@ -27,16 +27,16 @@ use crate::{TickCounter, CABLES};
 pub const DEFAULT_TELEMETRY_PERIOD: u16 = 10;
 
 /// Most received bytes [`ControlLoop::receive_bytes`] takes in one cycle:
-/// the receive work per cycle is bounded whatever arrives. Decoding costs
-/// about 170 instructions a byte on the board (COBS, CRC-32, postcard, the
-/// canonical re-encoding), so 256 bytes are at most about 44 000
-/// instructions, which with the worst step (20 000) leaves more than a third
-/// of the 1 ms period (125 000 instructions under QEMU, about 112 000 at
-/// 1.5 cycles per instruction on the board) free. 256 bytes a millisecond
-/// is 22 times what 115 200 baud carries (11.5 bytes per ms) and three
-/// setpoint frames per cycle; what arrives faster waits in the receive
-/// queue, and what finds the queue full is dropped and counted
-/// (`Counters::dropped_bytes`).
+/// the receive work per cycle is bounded whatever arrives. On the board
+/// (`cargo xtask run`'s receive flood) a cycle's 256 bytes cost at most
+/// about 24 000 instructions (back-to-back valid setpoint frames, 92 a
+/// byte: COBS, CRC-32, postcard, the canonical re-encoding, the checks;
+/// 0x00 storms, 0xFF runs and noise 17 to 29 a byte), so with the worst
+/// step the cycle stays within a third of the 1 ms period (125 000
+/// instructions under QEMU). 256 bytes a millisecond is 22 times what
+/// 115 200 baud carries (11.5 bytes per ms) and three setpoint frames per
+/// cycle; what arrives faster waits in the receive queue, and what finds
+/// the queue full is dropped and counted (`Counters::dropped_bytes`).
 pub const RECEIVE_BUDGET: usize = 256;
 
 /// A set of tension distribution methods (by `Method::wire_id`).

@@ -27,6 +27,15 @@ use cdpr_control::protocol::State;
 /// the demo passes only when every step is within it.
 pub const BUDGET: u32 = 20_000;
 
+/// Instructions in one 1 ms period under QEMU (`-icount shift=3`: 8 ns
+/// each): a step that takes longer overruns.
+pub const PERIOD_INSTRUCTIONS: u32 = (1_000_000u64 >> qemu::ICOUNT_SHIFT) as u32;
+
+/// What one cycle's receive work under any byte flood may take (a cycle's
+/// `cdpr_control::RECEIVE_BUDGET` of bytes), so that with a step at the
+/// [`BUDGET`] the cycle stays within 3/4 of [`PERIOD_INSTRUCTIONS`].
+pub const RECEIVE_LIMIT: u32 = PERIOD_INSTRUCTIONS * 3 / 4 - BUDGET;
+
 /// The states the demo goes through, in order: Enabled, Holding (the pose
 /// leaves the workspace), Fault (held too long), Disabled (the scripted
 /// operator clears the fault), Enabled.

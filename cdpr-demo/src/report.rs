@@ -96,6 +96,9 @@ pub struct Report {
     /// order (the barycenter's in the loop, the others replayed), checked
     /// against [`crate::methods::COSTS`].
     pub method_worst: [u32; 10],
+    /// The worst receive work of one cycle under a byte flood (a cycle's
+    /// `cdpr_control::RECEIVE_BUDGET` of bytes), in the report's unit.
+    pub receive_worst: u32,
 }
 
 impl Report {
@@ -179,6 +182,7 @@ mod tests {
             stack_size: 77_780,
             exit_code: u32::MAX as i32,
             method_worst: [u32::MAX; 10],
+            receive_worst: u32::MAX,
         }
     }
 

@@ -192,13 +192,15 @@ pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
         rounded::<CABLES>(&torques, 3),
         brakes
     );
+    let receive_worst = receive_flood(board);
     let (used, size) = stack::stack_high_water();
     defmt::println!("stack high-water mark: {=u32} of {=u32} bytes", used, size);
 
     flags |= verdict_flags(&results, &step);
     let code = if flags == 0 { exit::PASS } else { exit::FAIL | flags };
     print_verdict(code, flags, step.max);
-    let report = Report { method_worst, ..summarise(board, &results, &step, &barycenter, code) };
+    let report =
+        Report { method_worst, receive_worst, ..summarise(board, &results, &step, &barycenter, code) };
     log_record(&Record::Finished(report));
     crate::exit(code)
 }
@@ -467,6 +469,74 @@ fn replay_other_methods(clock: &Tim2Counter, solver: &mut Samples, barycenter: u
     worst
 }
 
+/// Cycles of each kind of byte flood [`receive_flood`] times.
+const FLOOD_CYCLES: u32 = 16;
+
+/// The receive work of one cycle under a flood, on the board: the control
+/// loop (disabled first, so that every valid frame is accepted and acted
+/// on) takes a cycle's [`cdpr_control::RECEIVE_BUDGET`] of bytes from an
+/// endless source, timed with interrupts off, for a 0x00 storm, 0xFF runs
+/// (oversize frames), pseudo-random bytes and back-to-back valid setpoint
+/// frames. Returns the worst call, instructions.
+fn receive_flood(board: &mut Board) -> u32 {
+    use cdpr_control::protocol::{encode, MAX_FRAME};
+    let Board { clock, drives, control, .. } = board;
+    control.receive(HostMessage::Disable);
+    control.step(&*clock, drives, &Wrench::zeros(), false);
+    let mut frame = [0u8; MAX_FRAME];
+    let setpoint = HostMessage::Setpoint(trajectory::setpoint(0).to_wire());
+    let frame_len = encode(&setpoint, &mut frame).unwrap_or(0).max(1);
+    let mut worst = 0;
+    let names = ["0x00 storm", "0xFF (oversize frames)", "pseudo-random bytes", "back-to-back setpoints"];
+    for (kind, name) in names.iter().enumerate() {
+        let mut x = 0x2545_f491u32;
+        let mut at = 0usize;
+        let mut kind_worst = 0;
+        for _ in 0..FLOOD_CYCLES {
+            let mut next = || {
+                at += 1;
+                Some(match kind {
+                    0 => 0x00,
+                    1 => 0xFF,
+                    2 => {
+                        x ^= x << 13;
+                        x ^= x >> 17;
+                        x ^= x << 5;
+                        x as u8
+                    }
+                    _ => frame[at % frame_len],
+                })
+            };
+            let ticks = cortex_m::interrupt::free(|_| {
+                let start = clock.ticks();
+                core::hint::black_box(control.receive_bytes(&mut next));
+                clock.since(start)
+            });
+            kind_worst = kind_worst.max(units(ticks));
+        }
+        defmt::println!(
+            "receive flood, {=str}: {=u32} {=str} worst per cycle for {=u32} bytes ({=u32} per byte)",
+            name,
+            kind_worst,
+            bsp::UNIT,
+            cdpr_control::RECEIVE_BUDGET as u32,
+            kind_worst / cdpr_control::RECEIVE_BUDGET as u32,
+        );
+        worst = worst.max(kind_worst);
+    }
+    let counters = control.counters();
+    defmt::println!(
+        "receive flood: worst {=u32} {=str} per cycle; accepted {=u32}, rejected framing {=u32}, crc {=u32}, decode {=u32}",
+        worst,
+        bsp::UNIT,
+        counters.accepted,
+        counters.rejected_framing,
+        counters.rejected_crc,
+        counters.rejected_decode,
+    );
+    worst
+}
+
 /// The failure flags of the real-time loop's results.
 fn verdict_flags(r: &LoopResults, step: &Summary) -> i32 {
     let mut flags = 0;
@@ -524,6 +594,7 @@ fn summarise(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summar
         stack_size,
         exit_code,
         method_worst: [0; 10],
+        receive_worst: 0,
     }
 }
 
