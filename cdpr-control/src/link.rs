@@ -23,8 +23,9 @@
 //!   something the robot must not do, so the supervisor holds and, if no
 //!   good setpoint follows, faults.
 //! * **Jumps.** While bound, a setpoint must follow from the reference by
-//!   its declared velocity ([`JumpLimits`]): rejected, counted and
-//!   [`Event::BadSetpoint`] otherwise.
+//!   its declared velocity over at most the time since the reference
+//!   arrived ([`JumpLimits`]): rejected, counted and [`Event::BadSetpoint`]
+//!   otherwise.
 //! * everything else becomes an event for the control loop.
 
 use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage, Rejection};
@@ -96,14 +97,20 @@ impl SetpointRange {
 }
 
 /// How far a setpoint may depart from where the reference's motion puts
-/// it. With the reference `(p0, v0)` that arrived `n` cycles earlier
-/// (`dt = max(n, 1) period_s`: setpoints that arrive together are taken one
-/// period apart, as a host streaming at the period sends them) and the new
-/// setpoint `(p1, v1)`, each coordinate must satisfy
-/// `|p1 - p0 - (v0 + v1) dt / 2| <= tolerance`: the trapezoid rule, exact
-/// for constant acceleration; the tolerance covers the arrival jitter
-/// (`|v| * jitter`: 50 mm is 35 ms late at the demo's top speed of 1.4 m/s)
-/// and the host's rounding.
+/// it. With the reference `(p0, v0)`, which arrived `n` cycles earlier, and
+/// the new setpoint `(p1, v1)`, there must be one time `dt` between 0 and
+/// `max(n, 1)` periods for which every coordinate satisfies
+/// `|p1 - p0 - (v0 + v1) dt / 2| <= tolerance`: the trapezoid rule (exact
+/// for constant acceleration) over the time the host's stream advanced,
+/// which the board cannot know exactly but which cannot exceed the time
+/// since the reference arrived. So setpoints that arrive together (`dt`
+/// one host period, less than the board's cycle), late (`dt` the time
+/// since), or after a pause from where the stream stopped (`dt` small
+/// though much time passed) are accepted, while a change that no common
+/// `dt` explains is a jump: the 1.1 m at zero velocity, or a far
+/// pose whose velocity would need longer than has passed to get there.
+/// The tolerance covers the host's rounding and its sampling of a curved
+/// path.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JumpLimits {
     /// The control period, s.
@@ -118,15 +125,43 @@ impl JumpLimits {
     /// The firmware's: 1 ms period, 50 mm, 0.1 rad.
     pub const DEFAULT: Self = Self { period_s: 0.001, position: 0.05, angle: 0.1 };
 
-    /// Whether `s` follows from `reference`, `cycles` later.
+    /// Whether `s` follows from `reference`, `cycles` later. Bounded: six
+    /// intervals intersected; the values are finite (range-checked first).
     fn consistent(&self, reference: &Reference, s: &cdpr_protocol::Setpoint, cycles: u32) -> bool {
-        let dt = cycles.max(1) as f32 * self.period_s;
-        (0..6).all(|i| {
-            let predicted = reference.pose[i] + 0.5 * (reference.velocity[i] + s.velocity[i]) * dt;
+        let elapsed = cycles.max(1) as f32 * self.period_s;
+        let tolerance = |i: usize| if i < 3 { self.position } else { self.angle };
+        // A stream in real time: `dt` is the time since the reference.
+        let on_time = (0..6).all(|i| {
+            let predicted = reference.pose[i] + 0.5 * (reference.velocity[i] + s.velocity[i]) * elapsed;
+            libm::fabsf(s.pose[i] - predicted) <= tolerance(i)
+        });
+        on_time || self.some_time_explains(reference, s, elapsed)
+    }
+
+    /// Whether one `dt` in `[0, elapsed]` explains every coordinate's change.
+    fn some_time_explains(&self, reference: &Reference, s: &cdpr_protocol::Setpoint, elapsed: f32) -> bool {
+        let (mut earliest, mut latest) = (0.0f32, elapsed);
+        for i in 0..6 {
             let tolerance = if i < 3 { self.position } else { self.angle };
-            // Written so that NaN fails.
-            libm::fabsf(s.pose[i] - predicted) <= tolerance
-        })
+            let change = s.pose[i] - reference.pose[i];
+            let rate = 0.5 * (reference.velocity[i] + s.velocity[i]);
+            if rate == 0.0 {
+                if libm::fabsf(change) > tolerance {
+                    return false;
+                }
+                continue;
+            }
+            // rate * dt within change -+ tolerance.
+            let (a, b) = ((change - tolerance) / rate, (change + tolerance) / rate);
+            let (from, to) = if rate > 0.0 { (a, b) } else { (b, a) };
+            if from > earliest {
+                earliest = from;
+            }
+            if to < latest {
+                latest = to;
+            }
+        }
+        earliest <= latest
     }
 }
 

@@ -250,12 +250,43 @@ fn a_jump_that_its_velocity_does_not_explain_is_rejected() {
     rig.send(HostMessage::Setpoint(moving(seq + 2, k + 2)));
     assert_eq!(rig.step().state, State::Enabled);
 
+    // Far, with a velocity that would need 0.35 s to get there: a jump.
+    let mut fake = moving(seq + 3, k + 3);
+    fake.pose[0] += 1.1;
+    fake.velocity[0] = 5.0;
+    rig.send(HostMessage::Setpoint(fake));
+    assert_eq!(rig.step().reason, Reason::BadSetpoint);
+    assert_eq!(rig.control.counters().rejected_jump, 2);
+    rig.send(HostMessage::Setpoint(moving(seq + 4, k + 4)));
+    assert_eq!(rig.step().state, State::Enabled);
+    let (seq, k) = (seq + 2, k + 2);
+
     // An angle jump too (0.3 rad with no rate).
     let mut turn = moving(seq + 3, k + 3);
     turn.pose[5] = 0.3;
     rig.send(HostMessage::Setpoint(turn));
     assert_eq!(rig.step().reason, Reason::BadSetpoint);
-    assert_eq!(rig.control.counters().rejected_jump, 2);
+    assert_eq!(rig.control.counters().rejected_jump, 3);
+}
+
+#[test]
+fn a_stream_that_pauses_and_resumes_where_it_stopped_is_no_jump() {
+    let mut rig = Rig::enabled_at(1);
+    for k in 1..=20 {
+        rig.send(HostMessage::Setpoint(moving(k + 1, k)));
+        rig.step();
+    }
+    // 60 cycles of silence: Holding (stale) after 50.
+    for _ in 0..60 {
+        rig.step();
+    }
+    assert_eq!(rig.control.supervisor().state(), State::Holding);
+    // The host resumes from the next point of its path (its time paused
+    // too), and a host that kept its clock running would be accepted as
+    // well (that is what the late setpoint of the other test checks).
+    rig.send(HostMessage::Setpoint(moving(22, 21)));
+    assert_eq!(rig.step().state, State::Enabled);
+    assert_eq!(rig.control.counters().rejected_jump, 0);
 }
 
 #[test]
