@@ -2,20 +2,22 @@
 //! supervisor together. The firmware and `hal-sim` both drive a
 //! [`ControlLoop`]:
 //!
-//! 1. every received byte goes to [`ControlLoop::receive_byte`] (or a
-//!    decoded message to [`ControlLoop::receive`]);
+//! 1. the received bytes go to [`ControlLoop::receive_bytes`], at most
+//!    [`RECEIVE_BUDGET`] a cycle, or one by one to
+//!    [`ControlLoop::receive_byte`] (or a decoded message to
+//!    [`ControlLoop::receive`]);
 //! 2. once per period [`ControlLoop::step`] solves the newest setpoint,
 //!    lets the supervisor decide, writes the drives and returns the
 //!    telemetry due this cycle;
 //! 3. the caller reports the step's measured cost with
 //!    [`ControlLoop::record_cost`] (it appears in the next telemetry).
 
-use cdpr_protocol::{Counters, HostMessage, Reason, State, Telemetry};
+use cdpr_protocol::{Counters, HostMessage, Reason, Rejection, State, Telemetry};
 use tension_core::{Error, Method};
 
 use crate::controller::{Controller, Cycle, Wrench};
 use crate::drives::WinchDrives;
-use crate::link::{Event, Link, SetpointRange};
+use crate::link::{Event, JumpLimits, Link, SetpointRange};
 use crate::robot::ControlRobot;
 use crate::setpoint::Setpoint;
 use crate::supervisor::{Requests, SafetyLimits, SetpointStatus, Supervisor};
@@ -23,6 +25,40 @@ use crate::{TickCounter, CABLES};
 
 /// Telemetry period at start-up, cycles.
 pub const DEFAULT_TELEMETRY_PERIOD: u16 = 10;
+
+/// Most received bytes [`ControlLoop::receive_bytes`] takes in one cycle:
+/// the receive work per cycle is bounded whatever arrives. On the board
+/// (`cargo xtask run`'s receive flood) a cycle's 256 bytes cost at most
+/// about 24 000 instructions (back-to-back valid setpoint frames, 92 a
+/// byte: COBS, CRC-32, postcard, the canonical re-encoding, the checks;
+/// 0x00 storms, 0xFF runs and noise 17 to 29 a byte), so with the worst
+/// step the cycle stays within a third of the 1 ms period (125 000
+/// instructions under QEMU). 256 bytes a millisecond is 22 times what
+/// 115 200 baud carries (11.5 bytes per ms) and three setpoint frames per
+/// cycle; what arrives faster waits in the receive queue, and what finds
+/// the queue full is dropped and counted (`Counters::dropped_bytes`).
+pub const RECEIVE_BUDGET: usize = 256;
+
+/// A set of tension distribution methods (by `Method::wire_id`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MethodSet(u32);
+
+impl MethodSet {
+    /// No method.
+    pub const EMPTY: Self = Self(0);
+    /// Every method.
+    pub const ALL: Self = Self(u32::MAX);
+
+    /// This set and `method`.
+    pub const fn with(self, method: Method) -> Self {
+        Self(self.0 | 1 << method.wire_id())
+    }
+
+    /// Whether `method` is in the set.
+    pub const fn contains(self, method: Method) -> bool {
+        self.0 & 1 << method.wire_id() != 0
+    }
+}
 
 /// The newest setpoint the link delivered.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -67,6 +103,8 @@ pub struct ControlLoop {
     last_cost: u32,
     /// The newest setpoint that solved feasibly (what the winches hold).
     last_feasible: Option<Setpoint>,
+    /// The methods `SelectMethod` may choose.
+    offered: MethodSet,
 }
 
 impl ControlLoop {
@@ -89,6 +127,7 @@ impl ControlLoop {
             cycle: 0,
             last_cost: 0,
             last_feasible: None,
+            offered: MethodSet::ALL,
         })
     }
 
@@ -170,16 +209,53 @@ impl ControlLoop {
         self.cycle
     }
 
+    /// Restricts `SelectMethod` to `offered` (all methods by default); a
+    /// request for another is refused and counted (`rejected_method`,
+    /// [`Rejection::MethodOverBudget`]). The firmware offers the methods
+    /// whose worst case fits its step budget (`cdpr_demo::methods`).
+    pub fn offer_only(&mut self, offered: MethodSet) {
+        self.offered = offered;
+    }
+
+    /// The methods `SelectMethod` may choose.
+    pub fn offered(&self) -> MethodSet {
+        self.offered
+    }
+
+    /// The link's jump check (`None`: off; on by default with
+    /// [`JumpLimits::DEFAULT`]).
+    pub fn set_jump_limits(&mut self, limits: Option<JumpLimits>) {
+        self.link.set_jump_limits(limits);
+    }
+
     /// Takes one byte from the serial link.
     pub fn receive_byte(&mut self, byte: u8) {
-        if let Some(event) = self.link.receive(byte, &mut self.counters) {
+        if let Some(event) = self.link.receive(byte, self.cycle, &mut self.counters) {
             self.apply(event);
         }
     }
 
+    /// Takes the bytes `next` yields, at most [`RECEIVE_BUDGET`] (the rest
+    /// stays with the caller for the next cycle); returns how many it took.
+    pub fn receive_bytes(&mut self, mut next: impl FnMut() -> Option<u8>) -> usize {
+        for taken in 0..RECEIVE_BUDGET {
+            match next() {
+                Some(byte) => self.receive_byte(byte),
+                None => return taken,
+            }
+        }
+        RECEIVE_BUDGET
+    }
+
+    /// Reports the bytes the receiver dropped so far (its running total),
+    /// shown as `Counters::dropped_bytes`.
+    pub fn record_dropped(&mut self, total: u32) {
+        self.counters.dropped_bytes = total;
+    }
+
     /// Takes one decoded message (checked like a received frame).
     pub fn receive(&mut self, message: HostMessage) {
-        if let Some(event) = self.link.accept(message, &mut self.counters) {
+        if let Some(event) = self.link.accept(message, self.cycle, &mut self.counters) {
             self.apply(event);
         }
     }
@@ -192,11 +268,15 @@ impl ControlLoop {
             Event::Disable => self.requests.disable = true,
             Event::ClearFault => self.requests.clear_fault = true,
             Event::TelemetryPeriod(p) => self.telemetry_period = p,
-            // Only while disabled: a switch in motion would jump the tensions.
+            // Only methods that fit the budget, and only while disabled: a
+            // switch in motion would jump the tensions.
             Event::SelectMethod(method) => {
-                let allowed = self.supervisor.state() == State::Disabled;
-                if !(allowed && self.controller.set_method(method).is_ok()) {
-                    self.counters.rejected_state = self.counters.rejected_state.wrapping_add(1);
+                if !self.offered.contains(method) {
+                    self.counters.reject(Rejection::MethodOverBudget);
+                } else if !(self.supervisor.state() == State::Disabled
+                    && self.controller.set_method(method).is_ok())
+                {
+                    self.counters.reject(Rejection::State);
                 }
             }
         }
@@ -253,7 +333,9 @@ impl ControlLoop {
 
         let requests = core::mem::take(&mut self.requests);
         let (mut output, decisions) = self.supervisor.cycle(now, requests, &status, overrun);
-        self.counters.rejected_state = self.counters.rejected_state.wrapping_add(decisions.refused);
+        for _ in 0..decisions.refused {
+            self.counters.reject(Rejection::State);
+        }
         let mut faulted = decisions.faulted;
         if decisions.disabled {
             self.link.restart_sequence();
@@ -275,6 +357,9 @@ impl ControlLoop {
 
         let state = self.supervisor.state();
         let reason = self.supervisor.reason();
+        // Setpoints drive the winches only in Enabled and Holding: only
+        // then do the order and jump checks apply (`crate::link`).
+        self.link.bind(matches!(state, State::Enabled | State::Holding));
         let telemetry = (self.telemetry_period != 0 && now.is_multiple_of(u32::from(self.telemetry_period)))
             .then(|| {
                 let ok = solved.and_then(|c| c.result.ok());

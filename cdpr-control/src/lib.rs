@@ -36,7 +36,7 @@ pub mod stats;
 pub mod supervisor;
 
 pub use cdpr_protocol as protocol;
-pub use control_loop::{ControlLoop, StepReport};
+pub use control_loop::{ControlLoop, MethodSet, StepReport, RECEIVE_BUDGET};
 pub use drives::WinchDrives;
 pub use robot::{ControlRobot, CABLES, DOF};
 pub use setpoint::Setpoint;

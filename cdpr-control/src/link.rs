@@ -1,21 +1,34 @@
 //! What the serial protocol's frames mean to the controller: bytes in,
-//! [`Event`]s out. Framing, CRC and decoding are `cdpr-protocol`'s; this layer
-//! adds the checks that need the robot and the stream's history:
+//! [`Event`]s out. Framing, CRC and decoding are `cdpr-protocol`'s (only
+//! canonical encodings pass); this layer adds the checks that need the
+//! robot and the stream's history. Every rejection is counted
+//! ([`Counters::reject`]) and a rejected setpoint never changes what the
+//! link remembers, so no input can lock the link.
 //!
-//! * a setpoint whose sequence number is not larger than the last accepted
-//!   one is out of order: rejected, counted, and otherwise ignored (a
-//!   duplicate or a late frame says nothing new);
-//! * a setpoint with a non-finite value or outside [`SetpointRange`] is
-//!   rejected and counted, its values are never used, and it becomes
-//!   [`Event::BadSetpoint`]: the stream has asked for something the robot
-//!   must not do, so the supervisor holds and, if no good setpoint follows,
-//!   faults;
+//! * **Sequence rule.** The *reference* is the last accepted setpoint.
+//!   While the link is *bound* (the robot is Enabled or Holding: setpoints
+//!   drive the winches) a setpoint is in order only if its number is newer
+//!   than the reference's in serial-number arithmetic (RFC 1982):
+//!   `seq - last` (wrapping) in `1..=2^31 - 1`, so numbering runs through
+//!   the `u32` wrap (49.7 days at 1 kHz) without a pause; anything else is
+//!   out of order: rejected, counted and otherwise ignored (a duplicate or a
+//!   late frame says nothing new). While the link is free (Disabled, Fault)
+//!   every setpoint within range is accepted whatever its number and
+//!   becomes the reference, so a host that (re)connects starts from any
+//!   number; a `Disable` drops the reference at once, so a host may
+//!   renumber right after it in the same burst.
+//! * **Range.** A setpoint with a non-finite value or outside
+//!   [`SetpointRange`] is rejected and counted, its values are never used,
+//!   and it becomes [`Event::BadSetpoint`]: the stream has asked for
+//!   something the robot must not do, so the supervisor holds and, if no
+//!   good setpoint follows, faults.
+//! * **Jumps.** While bound, a setpoint must follow from the reference by
+//!   its declared velocity over at most the time since the reference
+//!   arrived ([`JumpLimits`]): rejected, counted and [`Event::BadSetpoint`]
+//!   otherwise.
 //! * everything else becomes an event for the control loop.
-//!
-//! The sequence check restarts ([`Link::restart_sequence`]) whenever the
-//! robot is disabled, so a host may renumber from 1 after a disable.
 
-use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage};
+use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage, Rejection};
 use tension_core::Robot;
 
 use crate::setpoint::Setpoint;
@@ -83,13 +96,97 @@ impl SetpointRange {
     }
 }
 
+/// How far a setpoint may depart from where the reference's motion puts
+/// it. With the reference `(p0, v0)`, which arrived `n` cycles earlier, and
+/// the new setpoint `(p1, v1)`, there must be one time `dt` between 0 and
+/// `max(n, 1)` periods for which every coordinate satisfies
+/// `|p1 - p0 - (v0 + v1) dt / 2| <= tolerance`: the trapezoid rule (exact
+/// for constant acceleration) over the time the host's stream advanced,
+/// which the board cannot know exactly but which cannot exceed the time
+/// since the reference arrived. So setpoints that arrive together (`dt`
+/// one host period, less than the board's cycle), late (`dt` the time
+/// since), or after a pause from where the stream stopped (`dt` small
+/// though much time passed) are accepted, while a change that no common
+/// `dt` explains is a jump: the 1.1 m at zero velocity, or a far
+/// pose whose velocity would need longer than has passed to get there.
+/// The tolerance covers the host's rounding and its sampling of a curved
+/// path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JumpLimits {
+    /// The control period, s.
+    pub period_s: f32,
+    /// Largest departure of `x, y, z`, m.
+    pub position: f32,
+    /// Largest departure of `rx, ry, rz`, rad.
+    pub angle: f32,
+}
+
+impl JumpLimits {
+    /// The firmware's: 1 ms period, 50 mm, 0.1 rad.
+    pub const DEFAULT: Self = Self { period_s: 0.001, position: 0.05, angle: 0.1 };
+
+    /// Whether `s` follows from `reference`, `cycles` later. Bounded: six
+    /// intervals intersected; the values are finite (range-checked first).
+    fn consistent(&self, reference: &Reference, s: &cdpr_protocol::Setpoint, cycles: u32) -> bool {
+        let elapsed = cycles.max(1) as f32 * self.period_s;
+        let tolerance = |i: usize| if i < 3 { self.position } else { self.angle };
+        // A stream in real time: `dt` is the time since the reference.
+        let on_time = (0..6).all(|i| {
+            let predicted = reference.pose[i] + 0.5 * (reference.velocity[i] + s.velocity[i]) * elapsed;
+            libm::fabsf(s.pose[i] - predicted) <= tolerance(i)
+        });
+        on_time || self.some_time_explains(reference, s, elapsed)
+    }
+
+    /// Whether one `dt` in `[0, elapsed]` explains every coordinate's change.
+    fn some_time_explains(&self, reference: &Reference, s: &cdpr_protocol::Setpoint, elapsed: f32) -> bool {
+        let (mut earliest, mut latest) = (0.0f32, elapsed);
+        for i in 0..6 {
+            let tolerance = if i < 3 { self.position } else { self.angle };
+            let change = s.pose[i] - reference.pose[i];
+            let rate = 0.5 * (reference.velocity[i] + s.velocity[i]);
+            if rate == 0.0 {
+                if libm::fabsf(change) > tolerance {
+                    return false;
+                }
+                continue;
+            }
+            // rate * dt within change -+ tolerance.
+            let (a, b) = ((change - tolerance) / rate, (change + tolerance) / rate);
+            let (from, to) = if rate > 0.0 { (a, b) } else { (b, a) };
+            if from > earliest {
+                earliest = from;
+            }
+            if to < latest {
+                latest = to;
+            }
+        }
+        earliest <= latest
+    }
+}
+
+/// The last accepted setpoint: what the next is checked against.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Reference {
+    seq: u32,
+    pose: [f32; 6],
+    velocity: [f32; 6],
+    /// The cycle it arrived in.
+    cycle: u32,
+}
+
+/// Whether `seq` is newer than `last` in serial-number arithmetic.
+pub fn newer(seq: u32, last: u32) -> bool {
+    (1..=i32::MAX as u32).contains(&seq.wrapping_sub(last))
+}
+
 /// What an accepted frame asks for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Event {
     /// A new setpoint, in range and in order.
     Setpoint(Setpoint),
     /// A setpoint arrived in order but with a non-finite or out-of-range
-    /// value; it is not used.
+    /// value, or a jump from the last accepted one; it is not used.
     BadSetpoint,
     /// `Enable`.
     Enable,
@@ -108,58 +205,78 @@ pub enum Event {
 pub struct Link {
     decoder: FrameDecoder,
     range: SetpointRange,
-    last_seq: Option<u32>,
+    jumps: Option<JumpLimits>,
+    reference: Option<Reference>,
+    bound: bool,
 }
 
 impl Link {
-    /// A link that accepts setpoints within `range`.
+    /// A link that accepts setpoints within `range`, with the jump check of
+    /// [`JumpLimits::DEFAULT`]; free (as in Disabled).
     pub const fn new(range: SetpointRange) -> Self {
-        Self { decoder: FrameDecoder::new(), range, last_seq: None }
+        Self {
+            decoder: FrameDecoder::new(),
+            range,
+            jumps: Some(JumpLimits::DEFAULT),
+            reference: None,
+            bound: false,
+        }
     }
 
-    /// Takes one received byte; returns the event of a frame it completed.
-    /// Rejected frames are counted in `counters`.
-    pub fn receive(&mut self, byte: u8, counters: &mut Counters) -> Option<Event> {
+    /// Takes one received byte in cycle `now`; returns the event of a frame
+    /// it completed. Rejected frames are counted in `counters`.
+    pub fn receive(&mut self, byte: u8, now: u32, counters: &mut Counters) -> Option<Event> {
         match self.decoder.push::<HostMessage>(byte)? {
-            Ok(message) => self.accept(message, counters),
+            Ok(message) => self.accept(message, now, counters),
             Err(e) => {
-                let counter = match e {
-                    FrameError::Framing | FrameError::Oversize => &mut counters.rejected_framing,
-                    FrameError::Crc => &mut counters.rejected_crc,
+                counters.reject(match e {
+                    FrameError::Framing | FrameError::Oversize => Rejection::Framing,
+                    FrameError::Crc => Rejection::Crc,
                     FrameError::Decode | FrameError::TrailingBytes | FrameError::BufferTooSmall => {
-                        &mut counters.rejected_decode
+                        Rejection::Decode
                     }
-                };
-                *counter = counter.wrapping_add(1);
+                });
                 None
             }
         }
     }
 
     /// Checks a decoded message (from [`Link::receive`], or from a local
-    /// source such as the firmware's demo script) and returns its event.
-    pub fn accept(&mut self, message: HostMessage, counters: &mut Counters) -> Option<Event> {
+    /// source such as the firmware's demo script) arriving in cycle `now`
+    /// and returns its event.
+    pub fn accept(&mut self, message: HostMessage, now: u32, counters: &mut Counters) -> Option<Event> {
         let event = match message {
             HostMessage::Setpoint(s) => {
-                if self.last_seq.is_some_and(|last| s.seq <= last) {
-                    counters.rejected_order = counters.rejected_order.wrapping_add(1);
+                let bound = self.reference.filter(|_| self.bound);
+                if bound.is_some_and(|r| !newer(s.seq, r.seq)) {
+                    counters.reject(Rejection::Order);
                     return None;
                 }
-                self.last_seq = Some(s.seq);
                 if !self.range.contains(&s) {
-                    counters.rejected_range = counters.rejected_range.wrapping_add(1);
+                    counters.reject(Rejection::Range);
                     return Some(Event::BadSetpoint);
                 }
+                if let (Some(r), Some(limits)) = (bound, self.jumps) {
+                    if !limits.consistent(&r, &s, now.wrapping_sub(r.cycle)) {
+                        counters.reject(Rejection::Jump);
+                        return Some(Event::BadSetpoint);
+                    }
+                }
+                self.reference =
+                    Some(Reference { seq: s.seq, pose: s.pose, velocity: s.velocity, cycle: now });
                 Event::Setpoint(Setpoint::from(&s))
             }
             HostMessage::Enable => Event::Enable,
-            HostMessage::Disable => Event::Disable,
+            HostMessage::Disable => {
+                self.reference = None;
+                Event::Disable
+            }
             HostMessage::ClearFault => Event::ClearFault,
             HostMessage::TelemetryPeriod(p) => Event::TelemetryPeriod(p),
             HostMessage::SelectMethod(id) => match tension_core::Method::from_wire_id(id) {
                 Some(method) => Event::SelectMethod(method),
                 None => {
-                    counters.rejected_range = counters.rejected_range.wrapping_add(1);
+                    counters.reject(Rejection::Range);
                     return None;
                 }
             },
@@ -168,9 +285,27 @@ impl Link {
         Some(event)
     }
 
-    /// Forgets the last sequence number: the next setpoint may carry any.
+    /// Forgets the reference: the next setpoint may carry any number and
+    /// any pose.
     pub fn restart_sequence(&mut self) {
-        self.last_seq = None;
+        self.reference = None;
+    }
+
+    /// Binds the link (Enabled, Holding: the order and jump checks apply)
+    /// or frees it (Disabled, Fault: any setpoint within range is accepted
+    /// and becomes the reference).
+    pub fn bind(&mut self, bound: bool) {
+        self.bound = bound;
+    }
+
+    /// The jump check (`None`: off, e.g. for tests that jump on purpose).
+    pub fn set_jump_limits(&mut self, limits: Option<JumpLimits>) {
+        self.jumps = limits;
+    }
+
+    /// The jump check in use.
+    pub fn jump_limits(&self) -> Option<&JumpLimits> {
+        self.jumps.as_ref()
     }
 
     /// The range setpoints are checked against.

@@ -30,7 +30,10 @@
 //!   setpoint returns to Enabled; after `hold_cycles` of holding, Fault.
 //! * **Fault**: brakes engaged, torques ramp to zero like Disabled; the
 //!   state is latched until `ClearFault` (granted once the ramp has
-//!   finished), which leads to Disabled. Also entered from Enabled or
+//!   finished), which leads to Disabled. Requests change the state at most
+//!   once per cycle (precedence Disable, ClearFault, Enable): an `Enable`
+//!   in the same cycle as a granted `ClearFault` or `Disable` is refused,
+//!   so Disabled is always visible on the way back. Also entered from Enabled or
 //!   Holding when `overrun_limit` cycles in a row miss their deadline (a
 //!   loop that cannot keep up; one late cycle only holds the previous
 //!   torques a millisecond longer), or when the drives report an error.
@@ -221,7 +224,11 @@ impl Supervisor {
         let mut decisions = Decisions::default();
         let before = self.state;
 
-        // Requests, most protective first.
+        // Requests, most protective first; at most one of them changes the
+        // state per cycle, so every transition is an edge of the diagram
+        // and each state it passes through is seen (ClearFault and Enable
+        // in one burst: Disabled this cycle, and the Enable is refused).
+        let mut changed = false;
         if requests.disable {
             match self.state {
                 State::Enabled | State::Holding => {
@@ -229,16 +236,18 @@ impl Supervisor {
                     self.reason = Reason::None;
                     self.hold_reason = Reason::None;
                     self.start_ramp(now);
+                    changed = true;
                 }
                 // Already disabled, or latched in fault: nothing to do.
                 State::Disabled | State::Fault => {}
             }
         }
         if requests.clear_fault {
-            if self.state == State::Fault && self.ramp_done(now) {
+            if self.state == State::Fault && self.ramp_done(now) && !changed {
                 self.state = State::Disabled;
                 self.reason = Reason::None;
                 self.hold_reason = Reason::None;
+                changed = true;
             } else {
                 decisions.refused += 1;
             }
@@ -246,7 +255,7 @@ impl Supervisor {
         if requests.enable {
             match (self.state, status) {
                 (State::Disabled, SetpointStatus::Feasible(_))
-                    if self.ramp_done(now) && !requests.disable =>
+                    if self.ramp_done(now) && !requests.disable && !changed =>
                 {
                     self.state = State::Enabled;
                 }

@@ -4,6 +4,8 @@
 //!   the end-to-end test streams;
 //! * [`report`]: the typed records the demo logs, postcard-encoded, for
 //!   `xtask` to decode;
+//! * [`methods`]: which methods the board offers, from their measured
+//!   worst cases against the [`BUDGET`];
 //! * [`BUDGET`], [`EXPECTED_STATES`], the [`exit`] codes: what the demo's
 //!   verdict is made of;
 //! * [`qemu`]: the emulator's machine and its `-icount` setting, which the
@@ -15,6 +17,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod methods;
 pub mod report;
 pub mod trajectory;
 
@@ -23,6 +26,15 @@ use cdpr_control::protocol::State;
 /// Instruction budget of one control step (QEMU; cycles on the board):
 /// the demo passes only when every step is within it.
 pub const BUDGET: u32 = 20_000;
+
+/// Instructions in one 1 ms period under QEMU (`-icount shift=3`: 8 ns
+/// each): a step that takes longer overruns.
+pub const PERIOD_INSTRUCTIONS: u32 = (1_000_000u64 >> qemu::ICOUNT_SHIFT) as u32;
+
+/// What one cycle's receive work under any byte flood may take (a cycle's
+/// `cdpr_control::RECEIVE_BUDGET` of bytes), so that with a step at the
+/// [`BUDGET`] the cycle stays within 3/4 of [`PERIOD_INSTRUCTIONS`].
+pub const RECEIVE_LIMIT: u32 = PERIOD_INSTRUCTIONS * 3 / 4 - BUDGET;
 
 /// The states the demo goes through, in order: Enabled, Holding (the pose
 /// leaves the workspace), Fault (held too long), Disabled (the scripted

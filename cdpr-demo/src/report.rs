@@ -92,6 +92,13 @@ pub struct Report {
     pub stack_size: u32,
     /// The exit code the demo ends with (its verdict).
     pub exit_code: i32,
+    /// Each method's worst solve over the demo's poses, in `Method::ALL`
+    /// order (the barycenter's in the loop, the others replayed), checked
+    /// against [`crate::methods::COSTS`].
+    pub method_worst: [u32; 10],
+    /// The worst receive work of one cycle under a byte flood (a cycle's
+    /// `cdpr_control::RECEIVE_BUDGET` of bytes), in the report's unit.
+    pub receive_worst: u32,
 }
 
 impl Report {
@@ -174,6 +181,8 @@ mod tests {
             stack_used: 7912,
             stack_size: 77_780,
             exit_code: u32::MAX as i32,
+            method_worst: [u32::MAX; 10],
+            receive_worst: u32::MAX,
         }
     }
 

@@ -13,6 +13,20 @@
 //!
 //! The peak accelerations stay a few m/s^2, so the d'Alembert wrench matters
 //! but does not dominate gravity.
+//!
+//! The demo's cycle-time run ([`script`]) puts two stretches before the
+//! loop, both while the robot is still disabled (the solver runs every
+//! cycle in every state, so they are timed like the rest):
+//! * [`REST_CYCLES`] cycles at rest at suspended-8's centre [`CENTRE`], a
+//!   symmetric pose where pairs of cables are alike (the warm start must hold
+//!   there);
+//! * [`JUMP_CYCLES`] cycles that jump every cycle between the poses of
+//!   [`JUMP_TIMES`] across the workspace, so that the warm start stops
+//!   holding and the solver starts cold.
+//!
+//! The robot is enabled at the loop's start ([`PRELUDE_CYCLES`]); the jumps
+//! happen before, because the link rejects a jump in motion (its change is
+//! not what its velocity says).
 
 use cdpr_control::setpoint::{Pose6, Setpoint};
 use tension_core::Real;
@@ -38,6 +52,37 @@ pub const RX: f32 = 0.1;
 pub const RY: f32 = 0.08;
 /// Amplitude of `rz`, rad.
 pub const RZ: f32 = 0.2;
+
+/// Cycles at rest at [`CENTRE`] at the start of [`script`].
+pub const REST_CYCLES: u32 = 300;
+/// Cycles of jumps between poses after the rest.
+pub const JUMP_CYCLES: u32 = 300;
+/// Cycles before the loop starts in [`script`].
+pub const PRELUDE_CYCLES: u32 = REST_CYCLES + JUMP_CYCLES;
+/// Cycles of the demo's whole run: the prelude, then one loop.
+pub const SCRIPT_CYCLES: usize = PRELUDE_CYCLES as usize + CYCLES;
+/// suspended-8's centre: `(0, 0, 1.8)` m, no rotation.
+pub const CENTRE: [f32; 6] = [0.0, 0.0, 1.8, 0.0, 0.0, 0.0];
+/// Times of the loop (s) whose setpoints the jump stretch visits in turn:
+/// feasible poses far apart (both sides, low and halfway up), with their
+/// velocities and accelerations.
+pub const JUMP_TIMES: [f32; 6] = [0.0, 1.5, 0.5, 3.5, 1.0, 2.9];
+
+/// The demo's setpoint of cycle `k` (sequence number `k + 1`): at rest at
+/// [`CENTRE`] for [`REST_CYCLES`], jumping between the poses of
+/// [`JUMP_TIMES`] for [`JUMP_CYCLES`], then the loop ([`setpoint`]).
+pub fn script(k: u32) -> Setpoint {
+    let seq = k.wrapping_add(1);
+    if k < REST_CYCLES {
+        let zero = Pose6::zeros();
+        Setpoint { seq, pose: Pose6::from(CENTRE), velocity: zero, acceleration: zero }
+    } else if k < PRELUDE_CYCLES {
+        let t = JUMP_TIMES[(k - REST_CYCLES) as usize % JUMP_TIMES.len()];
+        Setpoint { seq, ..setpoint_at(t) }
+    } else {
+        Setpoint { seq, ..setpoint(k - PRELUDE_CYCLES) }
+    }
+}
 
 /// The setpoint of control cycle `k` (`t = k PERIOD_S`, sequence number `k + 1`).
 pub fn setpoint(k: u32) -> Setpoint {

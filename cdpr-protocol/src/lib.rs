@@ -66,7 +66,8 @@ pub enum FrameError {
     Oversize,
     /// Too short to hold a CRC, or the CRC does not match.
     Crc,
-    /// The CRC matches but the payload is not a message of the expected type.
+    /// The CRC matches but the payload is not a message of the expected
+    /// type, or not its canonical encoding (e.g. an overlong varint).
     Decode,
     /// The payload holds a message followed by extra bytes.
     TrailingBytes,
@@ -91,8 +92,11 @@ pub fn encode<T: Serialize>(message: &T, out: &mut [u8]) -> Result<usize, FrameE
 }
 
 /// Decodes one frame's bytes (COBS, without the delimiter) in place and
-/// returns the message.
-pub fn decode<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError> {
+/// returns the message. Only the canonical encoding is accepted: the
+/// message must re-encode to exactly the payload (postcard's decoder also
+/// takes overlong varints, e.g. the tag `1` as `81 00`, so one message would
+/// otherwise have many encodings); anything else is [`FrameError::Decode`].
+pub fn decode<T: DeserializeOwned + Serialize>(frame: &mut [u8]) -> Result<T, FrameError> {
     if frame.is_empty() {
         return Err(FrameError::Framing);
     }
@@ -110,7 +114,11 @@ pub fn decode<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError> {
     if !rest.is_empty() {
         return Err(FrameError::TrailingBytes);
     }
-    Ok(message)
+    let mut canonical = [0u8; MAX_PAYLOAD];
+    match postcard::to_slice(&message, &mut canonical) {
+        Ok(bytes) if *bytes == *payload => Ok(message),
+        _ => Err(FrameError::Decode),
+    }
 }
 
 /// Reassembles frames from a byte stream: feed every received byte to
@@ -137,7 +145,7 @@ impl FrameDecoder {
     }
 
     /// Takes one byte; returns `Some` when it ended a frame.
-    pub fn push<T: DeserializeOwned>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
+    pub fn push<T: DeserializeOwned + Serialize>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
         if byte != DELIMITER {
             match self.buf.get_mut(self.len) {
                 Some(slot) => {

@@ -15,8 +15,11 @@ pub const CABLES: usize = 8;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Setpoint {
-    /// Sequence number; each setpoint must carry a larger one than the last
-    /// accepted since the last `Enable` (older ones are rejected as out of order).
+    /// Sequence number. While the robot is Enabled or Holding each setpoint
+    /// must be newer than the last accepted one in serial-number arithmetic
+    /// (`seq - last`, wrapping, in `1..=2^31 - 1`; older ones are rejected as
+    /// out of order); in Disabled and Fault, and after a `Disable`, any
+    /// number starts the count afresh (see `cdpr-control`'s link layer).
     pub seq: u32,
     /// `[x, y, z, rx, ry, rz]`, m and rad.
     pub pose: [f32; DOF],
@@ -44,7 +47,8 @@ pub enum HostMessage {
     /// number `tension_core::Method::wire_id` (0 barycenter, 1 barycenter-brute,
     /// 2 analytic-centre, 3 closed-form, 4 improved-closed-form, 5 puncture,
     /// 6 improved-puncture, 7 min-2-norm, 8 min-1-norm, 9 optimally-safe).
-    /// Accepted in Disabled only.
+    /// Accepted in Disabled only, and only for a method the receiver offers
+    /// (the firmware: those whose worst case fits its step budget).
     SelectMethod(u8),
 }
 
@@ -118,6 +122,53 @@ impl Reason {
     }
 }
 
+/// Why the receiver last rejected a frame or refused a request
+/// ([`Counters::last_rejection`]); each has its counter in [`Counters`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Rejection {
+    /// Nothing rejected yet (tag 0).
+    #[default]
+    None,
+    /// Bad COBS or too long (tag 1, `rejected_framing`).
+    Framing,
+    /// CRC mismatch or too short (tag 2, `rejected_crc`).
+    Crc,
+    /// Good CRC, but not the canonical encoding of a message (tag 3,
+    /// `rejected_decode`).
+    Decode,
+    /// A setpoint not newer than the last accepted (tag 4, `rejected_order`).
+    Order,
+    /// A non-finite or out-of-range setpoint, or an unknown method number
+    /// (tag 5, `rejected_range`).
+    Range,
+    /// A setpoint whose change from the last accepted one disagrees with
+    /// its velocity (tag 6, `rejected_jump`).
+    Jump,
+    /// A command not allowed in the current state (tag 7, `rejected_state`).
+    State,
+    /// `SelectMethod` of a method whose worst case does not fit the board's
+    /// budget (tag 8, `rejected_method`).
+    MethodOverBudget,
+}
+
+impl Rejection {
+    /// The rejection's name in logs and tables (lower case, words joined by `-`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Rejection::None => "none",
+            Rejection::Framing => "framing",
+            Rejection::Crc => "crc",
+            Rejection::Decode => "decode",
+            Rejection::Order => "order",
+            Rejection::Range => "range",
+            Rejection::Jump => "jump",
+            Rejection::State => "state",
+            Rejection::MethodOverBudget => "method-over-budget",
+        }
+    }
+}
+
 /// Running counters of the link and the control loop (they wrap at `u32::MAX`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -142,6 +193,37 @@ pub struct Counters {
     pub infeasible: u32,
     /// Entries into the fault state.
     pub faults: u32,
+    /// Setpoints whose change from the last accepted one disagrees with
+    /// their velocity beyond the link's tolerance.
+    pub rejected_jump: u32,
+    /// `SelectMethod` requests for a method the board does not offer (its
+    /// worst case does not fit the step budget).
+    pub rejected_method: u32,
+    /// Received bytes dropped before decoding (the receive queue was full:
+    /// more arrived than the per-cycle receive budget drains).
+    pub dropped_bytes: u32,
+    /// Why the last rejection (any of the counters above but `accepted`,
+    /// `overruns`, `infeasible`, `faults` and `dropped_bytes`) happened.
+    pub last_rejection: Rejection,
+}
+
+impl Counters {
+    /// Counts one rejection in its counter and records it as the last.
+    pub fn reject(&mut self, why: Rejection) {
+        let counter = match why {
+            Rejection::None => return,
+            Rejection::Framing => &mut self.rejected_framing,
+            Rejection::Crc => &mut self.rejected_crc,
+            Rejection::Decode => &mut self.rejected_decode,
+            Rejection::Order => &mut self.rejected_order,
+            Rejection::Range => &mut self.rejected_range,
+            Rejection::Jump => &mut self.rejected_jump,
+            Rejection::State => &mut self.rejected_state,
+            Rejection::MethodOverBudget => &mut self.rejected_method,
+        };
+        *counter = counter.wrapping_add(1);
+        self.last_rejection = why;
+    }
 }
 
 /// One telemetry sample.

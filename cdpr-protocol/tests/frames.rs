@@ -4,8 +4,8 @@
 //! rejected without a panic.
 
 use cdpr_protocol::{
-    crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Reason, Setpoint,
-    State, Telemetry, CABLES, MAX_FRAME,
+    crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Reason, Rejection,
+    Setpoint, State, Telemetry, CABLES, MAX_FRAME,
 };
 use proptest::prelude::*;
 
@@ -16,7 +16,7 @@ fn frame_of<T: serde::Serialize>(message: &T) -> Vec<u8> {
 }
 
 /// Feeds a byte stream and collects every frame's outcome.
-fn feed<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Vec<Result<T, FrameError>> {
+fn feed<T: serde::de::DeserializeOwned + serde::Serialize>(bytes: &[u8]) -> Vec<Result<T, FrameError>> {
     let mut decoder = FrameDecoder::new();
     bytes.iter().filter_map(|&b| decoder.push::<T>(b)).collect()
 }
@@ -72,6 +72,10 @@ fn largest_message_fits() {
             overruns: u32::MAX,
             infeasible: u32::MAX,
             faults: u32::MAX,
+            rejected_jump: u32::MAX,
+            rejected_method: u32::MAX,
+            dropped_bytes: u32::MAX,
+            last_rejection: Rejection::MethodOverBudget,
         },
         method: u8::MAX,
     };
@@ -236,5 +240,79 @@ proptest! {
         stream.extend(frame_of(&HostMessage::ClearFault));
         let out = feed::<HostMessage>(&stream);
         prop_assert_eq!(out.last(), Some(&Ok(HostMessage::ClearFault)));
+    }
+}
+
+/// The postcard payload of `message` (no CRC, no COBS).
+fn payload_of(message: &HostMessage) -> Vec<u8> {
+    let mut out = [0u8; 200];
+    postcard::to_slice(message, &mut out).unwrap().to_vec()
+}
+
+#[test]
+fn overlong_varints_are_rejected() {
+    // The frame: Enable with the tag `81 00` (a correct CRC).
+    let overlong_enable = [0x02, 0x81, 0x05, 0xf5, 0xbb, 0x41, 0x63, 0x00];
+    assert_eq!(framed_raw(&[0x81, 0x00]), overlong_enable);
+    assert_eq!(feed::<HostMessage>(&overlong_enable), vec![Err(FrameError::Decode)]);
+    // A setpoint whose seq 1 takes five bytes.
+    let canonical = payload_of(&HostMessage::Setpoint(Setpoint {
+        seq: 1,
+        pose: [0.5; 6],
+        velocity: [0.0; 6],
+        acceleration: [0.0; 6],
+    }));
+    let mut overlong = vec![0x00, 0x81, 0x80, 0x80, 0x80, 0x00];
+    overlong.extend(&canonical[2..]);
+    assert_eq!(feed::<HostMessage>(&framed_raw(&overlong)), vec![Err(FrameError::Decode)]);
+    assert!(matches!(feed::<HostMessage>(&framed_raw(&canonical))[..], [Ok(_)]));
+    // TelemetryPeriod(5) with a two-byte 5.
+    assert_eq!(feed::<HostMessage>(&framed_raw(&[0x04, 0x85, 0x00])), vec![Err(FrameError::Decode)]);
+    assert_eq!(feed::<HostMessage>(&framed_raw(&[0x04, 0x05])), vec![Ok(HostMessage::TelemetryPeriod(5))]);
+}
+
+/// One edit of a payload: overwrite a byte, insert one, remove one, or make
+/// a varint-looking byte overlong (`b` -> `b | 0x80, 0x00`).
+#[derive(Debug, Clone)]
+enum Edit {
+    Set(prop::sample::Index, u8),
+    Insert(prop::sample::Index, u8),
+    Remove(prop::sample::Index),
+    Overlong(prop::sample::Index),
+}
+
+fn edit() -> impl Strategy<Value = Edit> {
+    prop_oneof![
+        1 => (any::<prop::sample::Index>(), any::<u8>()).prop_map(|(i, b)| Edit::Set(i, b)),
+        1 => (any::<prop::sample::Index>(), any::<u8>()).prop_map(|(i, b)| Edit::Insert(i, b)),
+        1 => any::<prop::sample::Index>().prop_map(Edit::Remove),
+        3 => any::<prop::sample::Index>().prop_map(Edit::Overlong),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// A fuzz of the decoder: payloads of valid messages with random edits,
+    /// CRC and COBS made right so that only the decoder judges them. Every
+    /// accepted payload is the canonical encoding of its message (it
+    /// re-encodes to the same bytes), so each message has one encoding.
+    #[test]
+    fn only_canonical_encodings_are_accepted(message in any_host_message(), edits in prop::collection::vec(edit(), 1..4)) {
+        let mut payload = payload_of(&message);
+        for e in edits {
+            match e {
+                Edit::Set(i, b) => { let i = i.index(payload.len()); payload[i] = b }
+                Edit::Insert(i, b) => { let i = i.index(payload.len() + 1); payload.insert(i, b) }
+                Edit::Remove(i) => { if payload.len() > 1 { let i = i.index(payload.len()); payload.remove(i); } }
+                Edit::Overlong(i) => {
+                    let i = i.index(payload.len());
+                    if payload[i] < 0x80 { payload[i] |= 0x80; payload.insert(i + 1, 0x00) }
+                }
+            }
+        }
+        for decoded in feed::<HostMessage>(&framed_raw(&payload)).into_iter().flatten() {
+            prop_assert_eq!(payload_of(&decoded), payload.clone(), "{:?}", decoded);
+        }
     }
 }

@@ -3,11 +3,12 @@
 //! fed by a scripted trajectory instead of the serial link, timed, and
 //! judged.
 //!
-//! * Setpoints: [`cdpr_demo::trajectory`], one closed loop of 4000
-//!   cycles that crosses the workspace of suspended-8 and leaves it once
-//!   (near the top). They enter the loop as protocol messages, through the
-//!   same checks as received frames.
-//! * A scripted operator: `Enable` at the start; after a fault, once the
+//! * Setpoints: [`cdpr_demo::trajectory::script`]: 300 cycles at rest at
+//!   suspended-8's centre and 300 cycles jumping between poses (disabled),
+//!   then one closed loop of 4000 cycles that crosses the workspace of
+//!   suspended-8 and leaves it once (near the top). They enter the loop as
+//!   protocol messages, through the same checks as received frames.
+//! * A scripted operator: `Enable` at the loop's start; after a fault, once the
 //!   torque ramp has finished and the setpoint is feasible again,
 //!   `ClearFault` and `Enable`. So the run shows Enabled -> Holding (the
 //!   pose leaves the workspace) -> Fault (hold timeout, torques ramp down,
@@ -31,15 +32,15 @@ use cdpr_control::stats::{Running, Samples, Summary};
 use cdpr_control::{ControlLoop, Setpoint, StepReport, TickCounter, CABLES};
 use cdpr_demo::exit::{self, fail};
 use cdpr_demo::report::{self, Record, Report, Spread, MAX_STATES};
-use cdpr_demo::{trajectory, BUDGET, EXPECTED_STATES, INJECT_AT};
+use cdpr_demo::{methods, trajectory, BUDGET, EXPECTED_STATES, INJECT_AT};
 use tension_core::{Error, Method, WarmStart};
 
 use crate::clock::{self, ticks_to_units as units, Tim2Counter};
 use crate::periodic::Releases;
 use crate::{bsp, drives, stack, Board};
 
-/// Cycles of the scripted run (one loop of the trajectory).
-pub const CYCLES: usize = trajectory::CYCLES;
+/// Cycles of the scripted run (the prelude and one loop of the trajectory).
+pub const CYCLES: usize = trajectory::SCRIPT_CYCLES;
 
 // The statistics live in fixed buffers of this many samples.
 const _: () = assert!(CYCLES >= 2000);
@@ -155,7 +156,7 @@ impl Operator {
                 control.receive(HostMessage::ClearFault);
                 self.fault_since = None;
             }
-            State::Disabled if ok => self.enable = true,
+            State::Disabled if ok && k + 1 >= trajectory::PRELUDE_CYCLES => self.enable = true,
             _ => {}
         }
     }
@@ -183,7 +184,7 @@ pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
     let barycenter = results.solver.summary();
     print_loop_results(board, &results, &step, &barycenter);
     barycenter_phases(&board.clock);
-    replay_other_methods(&board.clock, &mut results.solver);
+    let method_worst = replay_other_methods(&board.clock, &mut results.solver, barycenter.max);
 
     let (torques, brakes) = drives::drive_outputs();
     defmt::println!(
@@ -191,13 +192,16 @@ pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
         rounded::<CABLES>(&torques, 3),
         brakes
     );
+    let receive_worst = receive_flood(board);
     let (used, size) = stack::stack_high_water();
     defmt::println!("stack high-water mark: {=u32} of {=u32} bytes", used, size);
 
     flags |= verdict_flags(&results, &step);
     let code = if flags == 0 { exit::PASS } else { exit::FAIL | flags };
     print_verdict(code, flags, step.max);
-    log_record(&Record::Finished(summarise(board, &results, &step, &barycenter, code)));
+    let report =
+        Report { method_worst, receive_worst, ..summarise(board, &results, &step, &barycenter, code) };
+    log_record(&Record::Finished(report));
     crate::exit(code)
 }
 
@@ -265,7 +269,7 @@ async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults
     };
     r.transitions.push(control.supervisor().state());
     let ramp_cycles = control.supervisor().limits().ramp_cycles;
-    let mut operator = Operator { enable: true, fault_since: None, ramp_cycles };
+    let mut operator = Operator { enable: trajectory::PRELUDE_CYCLES == 0, fault_since: None, ramp_cycles };
     let mut overrun = false;
     let mut previous_ok = true;
 
@@ -279,7 +283,7 @@ async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults
 
         // The measured control step: setpoint -> checks -> solve ->
         // supervisor -> drives.
-        let setpoint = trajectory::setpoint(k);
+        let setpoint = trajectory::script(k);
         control.receive(HostMessage::Setpoint(setpoint.to_wire()));
         if operator.enable {
             control.receive(HostMessage::Enable);
@@ -421,19 +425,28 @@ fn print_loop_results(board: &Board, r: &LoopResults, step: &Summary, barycenter
         counters.rejected_range + counters.rejected_order,
     );
     defmt::println!(
-        "period check: {=u32} periods took {=u64} us of TIM2 time ({=u32} us nominal)",
+        "period check: {=u32} periods took {=u64} us of TIM2 time ({=u64} us nominal)",
         CYCLES as u32,
         r.period_ticks * 1_000_000 / bsp::TIMER_HZ,
-        CYCLES as u32 * 1_000_000 / crate::mono::TICK_HZ,
+        CYCLES as u64 * 1_000_000 / u64::from(crate::mono::TICK_HZ),
     );
 }
 
-/// The other methods over the same poses (not real time).
-fn replay_other_methods(clock: &Tim2Counter, solver: &mut Samples) {
-    for method in Method::ALL.into_iter().filter(|&m| m != Method::Barycenter) {
+/// The other methods over the same poses (not real time); returns every
+/// method's worst solve (`barycenter`: the loop's), in `Method::ALL` order,
+/// after checking each against the board's table (`cdpr_demo::methods`).
+fn replay_other_methods(clock: &Tim2Counter, solver: &mut Samples, barycenter: u32) -> [u32; 10] {
+    let mut worst = [0u32; 10];
+    for (slot, method) in worst.iter_mut().zip(Method::ALL) {
+        if method == Method::Barycenter {
+            *slot = barycenter;
+            continue;
+        }
         solver.clear();
         let counts = replay(method, clock, solver);
-        summary_line(method.name(), "solver only, same poses, replayed after the loop", &solver.summary());
+        let summary = solver.summary();
+        *slot = summary.max;
+        summary_line(method.name(), "solver only, same poses, replayed after the loop", &summary);
         defmt::println!(
             "  {=str}: {=u32} ok, infeasible {=u32}, no-convergence {=u32}, other errors {=u32}",
             method.name(),
@@ -443,6 +456,85 @@ fn replay_other_methods(clock: &Tim2Counter, solver: &mut Samples) {
             counts.other,
         );
     }
+    for (&measured, method) in worst.iter().zip(Method::ALL) {
+        defmt::println!(
+            "method table: {=str} worst {=u32} measured, {=u32} stated: {=str}, {=str}",
+            method.name(),
+            measured,
+            methods::stated_worst(method),
+            if methods::exceeded(method, measured) { "EXCEEDS the table" } else { "within" },
+            if methods::is_offered(method) { "offered" } else { "not offered (over the step budget)" },
+        );
+    }
+    worst
+}
+
+/// Cycles of each kind of byte flood [`receive_flood`] times.
+const FLOOD_CYCLES: u32 = 16;
+
+/// The receive work of one cycle under a flood, on the board: the control
+/// loop (disabled first, so that every valid frame is accepted and acted
+/// on) takes a cycle's [`cdpr_control::RECEIVE_BUDGET`] of bytes from an
+/// endless source, timed with interrupts off, for a 0x00 storm, 0xFF runs
+/// (oversize frames), pseudo-random bytes and back-to-back valid setpoint
+/// frames. Returns the worst call, instructions.
+fn receive_flood(board: &mut Board) -> u32 {
+    use cdpr_control::protocol::{encode, MAX_FRAME};
+    let Board { clock, drives, control, .. } = board;
+    control.receive(HostMessage::Disable);
+    control.step(&*clock, drives, &Wrench::zeros(), false);
+    let mut frame = [0u8; MAX_FRAME];
+    let setpoint = HostMessage::Setpoint(trajectory::setpoint(0).to_wire());
+    let frame_len = encode(&setpoint, &mut frame).unwrap_or(0).max(1);
+    let mut worst = 0;
+    let names = ["0x00 storm", "0xFF (oversize frames)", "pseudo-random bytes", "back-to-back setpoints"];
+    for (kind, name) in names.iter().enumerate() {
+        let mut x = 0x2545_f491u32;
+        let mut at = 0usize;
+        let mut kind_worst = 0;
+        for _ in 0..FLOOD_CYCLES {
+            let mut next = || {
+                at += 1;
+                Some(match kind {
+                    0 => 0x00,
+                    1 => 0xFF,
+                    2 => {
+                        x ^= x << 13;
+                        x ^= x >> 17;
+                        x ^= x << 5;
+                        x as u8
+                    }
+                    _ => frame[at % frame_len],
+                })
+            };
+            let ticks = cortex_m::interrupt::free(|_| {
+                let start = clock.ticks();
+                core::hint::black_box(control.receive_bytes(&mut next));
+                clock.since(start)
+            });
+            kind_worst = kind_worst.max(units(ticks));
+        }
+        defmt::println!(
+            "receive flood, {=str}: {=u32} {=str} worst per cycle for {=u32} bytes ({=u32} per byte)",
+            name,
+            kind_worst,
+            bsp::UNIT,
+            cdpr_control::RECEIVE_BUDGET as u32,
+            kind_worst / cdpr_control::RECEIVE_BUDGET as u32,
+        );
+        worst = worst.max(kind_worst);
+    }
+    let counters = control.counters();
+    defmt::println!(
+        "receive flood: worst {=u32} {=str} per cycle; accepted {=u32}, rejected framing {=u32}, crc {=u32}, decode {=u32}",
+        worst,
+        bsp::UNIT,
+        counters.accepted,
+        counters.rejected_framing,
+        counters.rejected_crc,
+        counters.rejected_decode,
+    );
+    worst
 }
 
 /// The failure flags of the real-time loop's results.
@@ -501,6 +593,8 @@ fn summarise(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summar
         stack_used,
         stack_size,
         exit_code,
+        method_worst: [0; 10],
+        receive_worst: 0,
     }
 }
 
@@ -555,7 +649,7 @@ fn barycenter_phases(clock: &Tim2Counter) {
     // Interrupts off: the timings must not include the monotonic's tick.
     cortex_m::interrupt::free(|_| {
         for k in 0..CYCLES as u32 {
-            let Ok((w, f)) = controller.wrench(&trajectory::setpoint(k), &Wrench::zeros()) else { continue };
+            let Ok((w, f)) = controller.wrench(&trajectory::script(k), &Wrench::zeros()) else { continue };
             // Filled in place, as `TensionSolver::solve` does.
             let t0 = clock.ticks();
             let mut fact = WrenchFactorization::zeroed();
@@ -593,7 +687,7 @@ fn replay(method: Method, clock: &Tim2Counter, samples: &mut Samples) -> Outcome
     let mut counts = Outcomes::default();
     let mut controller = controller(method);
     for k in 0..CYCLES as u32 {
-        let (w, f) = match controller.wrench(&trajectory::setpoint(k), &Wrench::zeros()) {
+        let (w, f) = match controller.wrench(&trajectory::script(k), &Wrench::zeros()) {
             Ok(wf) => wf,
             Err(e) => {
                 counts.count::<()>(&Err(e));

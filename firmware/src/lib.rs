@@ -78,13 +78,15 @@ impl Board {
         let clock = Tim2Counter::start(dp.TIM2, &dp.RCC);
         let calibration_ticks = clock::calibrate(&clock);
         Mono::start(dp.TIM5, &dp.RCC, bsp::TIMER_HZ as u32);
-        let control = match robot::robot().and_then(|robot| {
+        let mut control = match robot::robot().and_then(|robot| {
             let range = robot::setpoint_range(&robot);
             ControlLoop::new(robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
         }) {
             Ok(c) => c,
             Err(e) => panic!("robot description rejected: {}", e.status()),
         };
+        // Only the methods whose worst case fits the step budget.
+        control.offer_only(cdpr_demo::methods::offered());
         let board = Self { clock, calibration_ticks, drives: Drives::new(), control };
         (board, Rest { rcc: dp.RCC, usart1: dp.USART1, iwdg: dp.IWDG })
     }

@@ -3,13 +3,17 @@
 //! ignores the baud rate.
 //!
 //! * Receive: the RXNE interrupt ([`Receiver::on_interrupt`]) moves each
-//!   byte into a single-producer queue the control task drains every
-//!   cycle. A byte that finds the queue full (or a hardware overrun) is
-//!   dropped and counted; the protocol's CRC and COBS framing then reject
-//!   the frame it belonged to.
+//!   byte into a single-producer queue the control task drains, at most
+//!   `cdpr_control::RECEIVE_BUDGET` bytes a cycle (so no input can make a
+//!   step overrun). A byte that finds the queue full (or a hardware
+//!   overrun) is dropped and counted ([`dropped`], reported in telemetry as
+//!   `dropped_bytes`); the protocol's CRC and COBS framing then reject the
+//!   frame it belonged to.
 //! * Transmit: the control task queues whole telemetry frames; a
 //!   low-priority task writes them byte by byte as TXE allows, so a slow
 //!   line never delays the control loop.
+
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use heapless::spsc::{Consumer, Producer};
 use stm32f4::stm32f405::{usart1::RegisterBlock, RCC, USART1};
@@ -46,16 +50,28 @@ pub fn init(usart1: USART1, rcc: &RCC) {
     usart1.cr1().write(|w| w.ue().set_bit().te().set_bit().re().set_bit().rxneie().set_bit());
 }
 
+/// Received bytes dropped so far (queue full or hardware overrun); only
+/// the USART1 interrupt adds to it.
+static DROPPED: AtomicU32 = AtomicU32::new(0);
+
+/// Received bytes dropped so far (wrapping).
+pub fn dropped() -> u32 {
+    DROPPED.load(Ordering::Relaxed)
+}
+
+fn count_dropped() {
+    DROPPED.fetch_add(1, Ordering::Relaxed);
+}
+
 /// The receiving side, owned by the USART1 interrupt.
 pub struct Receiver {
     queue: Producer<'static, u8>,
-    dropped: u32,
 }
 
 impl Receiver {
     /// Receives into `queue`.
     pub fn new(queue: Producer<'static, u8>) -> Self {
-        Self { queue, dropped: 0 }
+        Self { queue }
     }
 
     /// Moves every received byte into the queue.
@@ -66,7 +82,7 @@ impl Receiver {
         for _ in 0..2 {
             let sr = usart.sr().read();
             if sr.ore().is_overrun() {
-                self.dropped = self.dropped.wrapping_add(1);
+                count_dropped();
             }
             if !(sr.rxne().is_data_ready() || sr.ore().is_overrun()) {
                 break;
@@ -74,7 +90,7 @@ impl Receiver {
             // Reading DR after SR clears RXNE and ORE.
             let byte = usart.dr().read().dr().bits() as u8;
             if self.queue.enqueue(byte).is_err() {
-                self.dropped = self.dropped.wrapping_add(1);
+                count_dropped();
             }
         }
     }

@@ -201,7 +201,7 @@ impl Scenario {
 
         let mut s = Self::base(
             "infeasible-setpoint",
-            "at 1 s the setpoint jumps to a pose outside the wrench-feasible workspace (z = 3.4 m)",
+            "at 1 s the setpoint jumps to a pose outside the wrench-feasible workspace (z = 3.4 m): rejected as a jump",
             2.0,
             Path::Jump { from: FAULT_POSE, to: [0.0, 0.0, 3.4, 0.0, 0.0, 0.0], at: event },
         );

@@ -14,7 +14,7 @@
 use crate::checks::run_step;
 use cdpr_demo::exit;
 use cdpr_demo::report::{self, Record, Report};
-use cdpr_demo::{BUDGET, EXPECTED_STATES};
+use cdpr_demo::{methods, BUDGET, EXPECTED_STATES, PERIOD_INSTRUCTIONS, RECEIVE_LIMIT};
 use std::{
     io::{BufRead, BufReader},
     os::unix::process::CommandExt,
@@ -80,6 +80,8 @@ pub fn run_demo() -> Result<(), String> {
 /// * TIM2 ticks convert to instructions as the icount relation says;
 /// * the safety states follow [`EXPECTED_STATES`]; the stack stays within
 ///   its limit;
+/// * every method's measured worst solve is within the table the board's
+///   offer of methods is derived from (`cdpr_demo::methods`);
 /// * a panic and a HardFault stop the drives first;
 /// * the product fits the chip and passes the end-to-end serial test.
 ///
@@ -122,16 +124,18 @@ impl Checks {
 }
 
 /// The names of [`judge_demo`]'s checks, in its order.
-const DEMO_CHECKS: [&str; 5] = [
+const DEMO_CHECKS: [&str; 7] = [
     "control step within the regression ceiling, no overrun",
     "out-of-workspace poses give infeasible",
     "timer ticks convert to instructions",
     "safety states on the demo: enabled, holding, fault, disabled, enabled",
     "worst stack depth within the limit (stack painting)",
+    "every method's measured worst solve within the board's table (cdpr_demo::methods)",
+    "receive work per cycle under a byte flood bounded (receive budget)",
 ];
 
 /// The demo run's final report against the bounds.
-fn judge_demo(run: &Run) -> [Result<String, String>; 5] {
+fn judge_demo(run: &Run) -> [Result<String, String>; 7] {
     let finished = run.records.iter().find_map(|r| match r {
         Record::Finished(report) => Some(report),
         _ => None,
@@ -143,7 +147,7 @@ fn judge_demo(run: &Run) -> [Result<String, String>; 5] {
 }
 
 /// The demo's report against the bounds; `code` is the process's exit code.
-fn judge_report(r: &Report, code: Option<i32>) -> [Result<String, String>; 5] {
+fn judge_report(r: &Report, code: Option<i32>) -> [Result<String, String>; 7] {
     let crashed = matches!(code, None | Some(1) | Some(exit::PANIC) | Some(exit::HARDFAULT));
     let s = r.step;
     let figures = format!(
@@ -189,7 +193,38 @@ fn judge_report(r: &Report, code: Option<i32>) -> [Result<String, String>; 5] {
     let stack = format!("{} bytes used of {}, limit {STACK_LIMIT}", r.stack_used, r.stack_size);
     let stack =
         if r.stack_used <= STACK_LIMIT && r.stack_used < r.stack_size { Ok(stack) } else { Err(stack) };
-    [step, statuses, timer, states, stack]
+    let receive = format!(
+        "worst {} instructions for a cycle's {} bytes of 0x00, 0xFF, random bytes or valid setpoints (limit {RECEIVE_LIMIT}: with a step at the {BUDGET} budget, 3/4 of the {PERIOD_INSTRUCTIONS}-instruction period)",
+        r.receive_worst,
+        cdpr_control::RECEIVE_BUDGET
+    );
+    let receive =
+        if r.receive_worst > 0 && r.receive_worst <= RECEIVE_LIMIT { Ok(receive) } else { Err(receive) };
+    [step, statuses, timer, states, stack, judge_methods(r), receive]
+}
+
+/// Each method's measured worst solve against the table the board's offer
+/// is derived from.
+fn judge_methods(r: &Report) -> Result<String, String> {
+    let rows: Vec<String> = tension_core::Method::ALL
+        .iter()
+        .zip(r.method_worst)
+        .map(|(&m, measured)| {
+            let offer = if methods::is_offered(m) { "offered" } else { "not offered" };
+            format!("{} {measured} <= {} ({offer})", m.name(), methods::stated_worst(m))
+        })
+        .collect();
+    let over: Vec<&str> = tension_core::Method::ALL
+        .iter()
+        .zip(r.method_worst)
+        .filter(|&(&m, measured)| methods::exceeded(m, measured) || measured == 0)
+        .map(|(m, _)| m.name())
+        .collect();
+    if over.is_empty() {
+        Ok(rows.join(", "))
+    } else {
+        Err(format!("over the table (or not measured): {}; {}", over.join(", "), rows.join(", ")))
+    }
 }
 
 /// A fault-injection run: it exits with `code`, the drives commanded
@@ -442,6 +477,8 @@ mod tests {
             stack_used: 7912,
             stack_size: 77_780,
             exit_code: exit::PASS,
+            method_worst: tension_core::Method::ALL.map(methods::stated_worst),
+            receive_worst: 44_000,
         }
     }
 
@@ -456,6 +493,11 @@ mod tests {
         assert!(judge_report(&states, Some(48))[3].is_err());
         let stack = Report { stack_used: 20_000, ..report() };
         assert!(judge_report(&stack, Some(0))[4].is_err());
+        let mut slow_method = report();
+        slow_method.method_worst[0] = methods::stated_worst(tension_core::Method::Barycenter) + 1;
+        assert!(judge_report(&slow_method, Some(0))[5].is_err());
+        let flooded = Report { receive_worst: 150_000, ..report() };
+        assert!(judge_report(&flooded, Some(0))[6].is_err());
         let timer = Report { calibration_ticks: 170_000, ..report() };
         assert!(judge_report(&timer, Some(36))[2].is_err());
         assert!(judge_report(&report(), Some(exit::PANIC))[1].is_err());

@@ -2,7 +2,7 @@
 //! commands over USART1 (`cdpr-protocol`), telemetry back, until reset.
 //!
 //! Every millisecond ([`firmware::periodic::Releases`]) the `control` task
-//! drains the bytes USART1 received, lets [`cdpr_control::ControlLoop`]
+//! takes up to `cdpr_control::RECEIVE_BUDGET` of the bytes USART1 received, lets [`cdpr_control::ControlLoop`]
 //! act on the frames (setpoints, enable, disable, clear fault, telemetry
 //! rate, method), solves the newest setpoint (kinematics, wrench with the
 //! d'Alembert terms, warm-started barycenter, motor torques), lets the
@@ -90,13 +90,9 @@ mod app {
         loop {
             let start = clock.ticks();
             bsp::feed_watchdog();
-            // Bounded: the queue holds at most RX_QUEUE bytes.
-            for _ in 0..RX_QUEUE {
-                match rx.dequeue() {
-                    Some(byte) => control.receive_byte(byte),
-                    None => break,
-                }
-            }
+            // At most RECEIVE_BUDGET bytes, whatever arrives; the rest waits.
+            control.receive_bytes(|| rx.dequeue());
+            control.record_dropped(serial::dropped());
             let report = control.step(&*clock, drives, &Wrench::zeros(), overrun);
             control.record_cost(clock::ticks_to_units(clock.since(start)));
             if let Some(telemetry) = report.telemetry {

@@ -1,0 +1,103 @@
+//! Which tension distribution methods the board offers over the link, and
+//! why: the one statement of it, which the product applies
+//! (`ControlLoop::offer_only(offered())`) and the demo's replay checks
+//! against what it measures.
+//!
+//! A method is offered when its stated worst solve plus the stated rest of
+//! the control step fits [`BUDGET`] (20 000 instructions per 1 ms step, the
+//! figure every step of the demo is held to). The stated figures are the
+//! worst cases `cargo xtask run` measured on the board (QEMU, `-icount
+//! shift=3`) over the demo's 4600 poses (rest at the centre, jumps between
+//! poses, the trajectory with its infeasible stretch), rounded up by 2 to 5 %
+//! (the barycenter's, the solver in the loop, measured 14 474; min-2-norm
+//! 18 055; optimally-safe 192 261); `cargo xtask test` fails this table
+//! ([`exceeded`]) when a measured worst exceeds its stated one.
+
+use tension_core::Method;
+
+use crate::BUDGET;
+
+/// A method's stated worst solve on the board, instructions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MethodCost {
+    /// The method.
+    pub method: Method,
+    /// Its worst solve, instructions (measured, rounded up).
+    pub worst: u32,
+}
+
+/// The control step without the solver, worst case: the setpoint's checks,
+/// kinematics, torques, state machine and drives (the phases' maxima in
+/// `cargo xtask run`'s step breakdown: 1 096 + 2 623 + 336 + 763 = 4 818),
+/// rounded up.
+pub const STEP_REST: u32 = 5_000;
+
+/// Every method's stated worst solve, in `Method::ALL` order.
+pub const COSTS: [MethodCost; 10] = [
+    MethodCost { method: Method::Barycenter, worst: 15_000 },
+    MethodCost { method: Method::BarycenterBrute, worst: 40_000 },
+    MethodCost { method: Method::AnalyticCentre, worst: 76_000 },
+    MethodCost { method: Method::ClosedForm, worst: 3_800 },
+    MethodCost { method: Method::ImprovedClosedForm, worst: 23_500 },
+    MethodCost { method: Method::Puncture, worst: 5_200 },
+    MethodCost { method: Method::ImprovedPuncture, worst: 25_000 },
+    MethodCost { method: Method::Min2Norm, worst: 18_600 },
+    MethodCost { method: Method::Min1Norm, worst: 18_600 },
+    MethodCost { method: Method::OptimallySafe, worst: 198_000 },
+];
+
+/// The stated worst solve of `method`.
+pub const fn stated_worst(method: Method) -> u32 {
+    let mut i = 0;
+    while i < COSTS.len() {
+        if COSTS[i].method.wire_id() == method.wire_id() {
+            return COSTS[i].worst;
+        }
+        i += 1;
+    }
+    u32::MAX
+}
+
+/// Whether the board offers `method`: its stated worst solve plus
+/// [`STEP_REST`] within [`BUDGET`].
+pub const fn is_offered(method: Method) -> bool {
+    stated_worst(method).saturating_add(STEP_REST) <= BUDGET
+}
+
+/// The methods the board offers (barycenter, closed-form, puncture).
+pub const fn offered() -> cdpr_control::MethodSet {
+    let mut set = cdpr_control::MethodSet::EMPTY;
+    let mut i = 0;
+    while i < COSTS.len() {
+        if is_offered(COSTS[i].method) {
+            set = set.with(COSTS[i].method);
+        }
+        i += 1;
+    }
+    set
+}
+
+/// Whether a measured worst solve of `method` exceeds its stated one (the
+/// table must then be remeasured, and may offer less).
+pub const fn exceeded(method: Method, measured: u32) -> bool {
+    measured > stated_worst(method)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_covers_every_method_in_order_and_offers_the_cheap_ones() {
+        for (cost, method) in COSTS.iter().zip(Method::ALL) {
+            assert_eq!(cost.method, method);
+        }
+        let expected = [Method::Barycenter, Method::ClosedForm, Method::Puncture];
+        for method in Method::ALL {
+            assert_eq!(offered().contains(method), expected.contains(&method), "{}", method.name());
+            assert_eq!(offered().contains(method), is_offered(method));
+        }
+        assert!(!offered().contains(Method::OptimallySafe));
+        assert!(exceeded(Method::Barycenter, 15_001) && !exceeded(Method::Barycenter, 15_000));
+    }
+}
