@@ -71,6 +71,8 @@ type Robot68 = Robot<f64, 6, 8>;
 struct Received {
     telemetry: Vec<Telemetry>,
     rejected_frames: usize,
+    /// Why the reader stopped, if it did before the session ended.
+    reader_error: Option<String>,
 }
 
 struct Session {
@@ -131,10 +133,18 @@ impl Session {
         thread::spawn(move || {
             let mut decoder = FrameDecoder::new();
             let mut buf = [0u8; 4096];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 {
-                    break;
-                }
+            loop {
+                let n = match reader.read(&mut buf) {
+                    Ok(0) => break,
+                    Ok(n) => n,
+                    // A signal (e.g. a child's exit) interrupts the read; it
+                    // is not the end of the link.
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                    Err(e) => {
+                        sink.lock().unwrap().reader_error = Some(e.to_string());
+                        break;
+                    }
+                };
                 let mut got = sink.lock().unwrap();
                 for &b in &buf[..n] {
                     match decoder.push::<DeviceMessage>(b) {
@@ -304,12 +314,46 @@ fn judge_tracking(
 
 /// Runs the scenario; each entry is one check's name and outcome.
 pub fn run() -> Vec<Check> {
-    let mut results = Vec::new();
-    if let Err(e) = scenario(&mut results) {
-        results.push(("end-to-end session".into(), Err(e)));
+    let mut stalls = Vec::new();
+    for attempt in 1..=SESSION_ATTEMPTS {
+        let mut results = Vec::new();
+        match scenario(&mut results) {
+            Ok(()) => {
+                if !stalls.is_empty() {
+                    let note = format!("{} of {attempt} sessions stalled and were restarted", stalls.len());
+                    results.push((
+                        "QEMU sessions that stalled (TIM5 model, see SESSION_ATTEMPTS)".into(),
+                        Ok(note),
+                    ));
+                }
+                return results;
+            }
+            Err(e) if attempt < SESSION_ATTEMPTS => {
+                println!("==> end-to-end: session {attempt} stalled ({e}); restarting QEMU");
+                stalls.push(e);
+            }
+            Err(e) => {
+                results.push((format!("end-to-end session ({SESSION_ATTEMPTS} attempts)"), Err(e)));
+                return results;
+            }
+        }
     }
-    results
+    Vec::new()
 }
+
+/// Sessions tried before the end-to-end test fails. A session stops short
+/// (a phase's wait for telemetry times out) when QEMU 7.2's STM32 timer
+/// model, under `-icount ... sleep=on`, lets TIM5's count run past `ARR`
+/// after an update it handled late: the next update, and with it the next
+/// control cycle, comes only when the 32-bit count wraps, 4.3 s later
+/// (diagnosed with gdb on a stalled session: the core idle in `wfi`, TIM5
+/// enabled with its interrupt unmasked and nothing pending, `CNT` at 9e8
+/// with `ARR` at 999 999). It happens in about half the sessions on the
+/// 2-core machine, also with the firmware as it was before the current
+/// changes (two stalls in three sessions at worst measured: 12 attempts
+/// leave about 1 % of runs failing on it). A check that fails is not
+/// retried: only a session that stops.
+const SESSION_ATTEMPTS: usize = 12;
 
 /// One check's name and outcome.
 type Check = (String, Result<String, String>);
@@ -384,7 +428,15 @@ fn track(s: &mut Session) -> Result<Vec<Telemetry>, String> {
         }
         thread::sleep(PACE);
     }
-    s.caught_up(from).ok_or("the firmware never reported the last tracking setpoint")?;
+    if s.caught_up(from).is_none() {
+        let last = s.telemetry_since(from).last().copied();
+        let reader = s.received.lock().unwrap().reader_error.clone();
+        let qemu = s.qemu.try_wait().map_err(|e| e.to_string())?;
+        return Err(format!(
+            "the firmware never reported the last tracking setpoint ({} sent; last telemetry: {last:?}; reader: {reader:?}; QEMU exit: {qemu:?})",
+            s.seq
+        ));
+    }
     Ok(s.telemetry_since(from))
 }
 
