@@ -13,6 +13,7 @@ use nalgebra::{SVector, Vector2};
 
 use crate::{
     linalg::WrenchFactorization,
+    methods::{PreviousCycle, Problem},
     polygon::{ActivePair, VertexList},
     scalar::greater,
     solution::{checked_solution, Solution, WarmStart},
@@ -28,8 +29,25 @@ pub(crate) enum Norm {
     Two,
 }
 
+/// The norm's optimum from the polygon when `r = 2` and the polygon
+/// decides; `None` for the active sets to decide: any other redundancy, or
+/// a polygon optimum that rounding put beyond a third limit by more than the
+/// tolerance (near a nearly degenerate vertex, three limit lines almost
+/// concurrent; seen in `f32` on IPAnema 1), reported as `NoConvergence`.
+pub(crate) fn decided_on_polygon<T: Real, const N: usize, const M: usize>(
+    problem: &Problem<'_, T, N, M>,
+    previous: &PreviousCycle<T, M>,
+    norm: Norm,
+) -> Option<Result<Solution<T, M>, Error>> {
+    if M != N + 2 {
+        return None;
+    }
+    let found = on_polygon(problem.factorization, problem.f, problem.limits, previous.active_pair, norm);
+    (!matches!(found, Err(Error::NoConvergence))).then_some(found)
+}
+
 /// `r = 2`: the optimum from the walk's vertices.
-pub(crate) fn on_polygon<T: Real, const N: usize, const M: usize>(
+fn on_polygon<T: Real, const N: usize, const M: usize>(
     fact: &WrenchFactorization<T, N, M>,
     f: &SVector<T, N>,
     limits: &TensionLimits<T, M>,

@@ -9,7 +9,7 @@ use nalgebra::SVector;
 use super::{PreviousCycle, Problem};
 use crate::{
     active_set::{minimise_linear, project, Constraints, NullSpaceProblem},
-    polygon_optimum::{on_polygon, Norm},
+    polygon_optimum::{decided_on_polygon, Norm},
     solution::{checked_solution, Solution, WarmStart},
     Error, Real,
 };
@@ -31,15 +31,10 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let Problem { f, limits, factorization, .. } = *problem;
-    if M == N + 2 {
-        let on_the_polygon = on_polygon(factorization, f, limits, previous.active_pair, Norm::One);
-        // As for min-2-norm: the active sets decide when rounding put the
-        // polygon's optimum beyond a limit.
-        if !matches!(on_the_polygon, Err(Error::NoConvergence)) {
-            return on_the_polygon;
-        }
+    if let Some(decided) = decided_on_polygon(problem, previous, Norm::One) {
+        return decided;
     }
+    let Problem { f, limits, factorization, .. } = *problem;
     let prob = NullSpaceProblem::new(factorization, f, limits)?;
     let tol = prob.tolerance();
     let base = Constraints::limits(&prob);

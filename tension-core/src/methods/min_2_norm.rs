@@ -39,7 +39,7 @@ use nalgebra::SVector;
 use super::{PreviousCycle, Problem};
 use crate::{
     active_set::{project, Constraints, NullSpaceProblem},
-    polygon_optimum::{on_polygon, Norm},
+    polygon_optimum::{decided_on_polygon, Norm},
     solution::{checked_solution, Solution, WarmStart},
     Error, Real,
 };
@@ -61,17 +61,10 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let Problem { f, limits, factorization, .. } = *problem;
-    if M == N + 2 {
-        let on_the_polygon = on_polygon(factorization, f, limits, previous.active_pair, Norm::Two);
-        // Near a nearly degenerate vertex (three limit lines almost
-        // concurrent) rounding can put the polygon's optimum beyond a third
-        // limit by more than the tolerance (seen in `f32` on IPAnema 1);
-        // the active-set method below then decides.
-        if !matches!(on_the_polygon, Err(Error::NoConvergence)) {
-            return on_the_polygon;
-        }
+    if let Some(decided) = decided_on_polygon(problem, previous, Norm::Two) {
+        return decided;
     }
+    let Problem { f, limits, factorization, .. } = *problem;
     let prob = NullSpaceProblem::new(factorization, f, limits)?;
     let p = project(&Constraints::limits(&prob), &SVector::zeros(), prob.tolerance())?;
     checked_solution(&prob.tensions(&p.x), limits, prob.tolerance(), p.steps, 0, None, WarmStart::NotGiven)

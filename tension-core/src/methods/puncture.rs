@@ -74,16 +74,32 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
+    towards(problem, || super::closed_form::solve(problem, previous))
+}
+
+/// Steps 1 and 3 of the module header with the end point `end` computes
+/// (step 2: the closed form here, the improved one for
+/// [`super::improved_puncture`]); the iterations count the end point's
+/// evaluations plus one, and its fixed cables carry over.
+pub(crate) fn towards<T: Real, const N: usize, const M: usize>(
+    problem: &Problem<'_, T, N, M>,
+    end: impl FnOnce() -> Result<Solution<T, M>, Error>,
+) -> Result<Solution<T, M>, Error> {
     let t0 = base_point(problem.factorization, problem.f)?;
     if inside(&t0, problem.limits) {
         return Ok(pack(t0, problem.limits, Diagnostics { iterations: 1, ..Diagnostics::empty() }));
     }
-    let end = super::closed_form::solve(problem, previous)?;
+    let end = end()?;
     let t = along_line(&t0, &end.tensions, problem.limits)?;
-    Ok(pack(t, problem.limits, Diagnostics { iterations: 2, ..Diagnostics::empty() }))
+    let diagnostics = Diagnostics {
+        iterations: end.diagnostics.iterations.saturating_add(1),
+        fixed_cables: end.diagnostics.fixed_cables,
+        ..Diagnostics::empty()
+    };
+    Ok(pack(t, problem.limits, diagnostics))
 }
 
-pub(crate) fn base_point<T: Real, const N: usize, const M: usize>(
+fn base_point<T: Real, const N: usize, const M: usize>(
     fact: &WrenchFactorization<T, N, M>,
     f: &SVector<T, N>,
 ) -> Result<SVector<T, M>, Error> {
@@ -98,13 +114,13 @@ pub(crate) fn base_point<T: Real, const N: usize, const M: usize>(
     }
 }
 
-pub(crate) fn inside<T: Real, const M: usize>(t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> bool {
+fn inside<T: Real, const M: usize>(t: &SVector<T, M>, limits: &TensionLimits<T, M>) -> bool {
     (0..M).all(|i| t[i] >= limits.min()[i] && t[i] <= limits.max()[i])
 }
 
 /// The puncture point `t_0 + s* (t_e - t_0)` (step 3 of the module header);
 /// `t_e` must be within the limits.
-pub(crate) fn along_line<T: Real, const M: usize>(
+fn along_line<T: Real, const M: usize>(
     t0: &SVector<T, M>,
     te: &SVector<T, M>,
     limits: &TensionLimits<T, M>,
@@ -131,7 +147,7 @@ pub(crate) fn along_line<T: Real, const M: usize>(
     }
 }
 
-pub(crate) fn pack<T: Real, const M: usize>(
+fn pack<T: Real, const M: usize>(
     t: SVector<T, M>,
     limits: &TensionLimits<T, M>,
     diagnostics: Diagnostics,
