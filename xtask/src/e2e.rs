@@ -320,11 +320,11 @@ pub fn run() -> Vec<Check> {
         match scenario(&mut results) {
             Ok(()) => {
                 if !stalls.is_empty() {
-                    let note = format!("{} of {attempt} sessions stalled and were restarted", stalls.len());
-                    results.push((
-                        "QEMU sessions that stalled (TIM5 model, see SESSION_ATTEMPTS)".into(),
-                        Ok(note),
-                    ));
+                    // Printed, not counted: a restart is no check that passed.
+                    println!(
+                        "==> end-to-end: {} of {attempt} QEMU sessions stalled and were restarted",
+                        stalls.len()
+                    );
                 }
                 return results;
             }
