@@ -149,6 +149,18 @@ struct WinchToml {
     gear_ratio: f64,
     efficiency: f64,
     torque_max: f64,
+    #[serde(default)]
+    counts_per_revolution: Option<Spanned<i64>>,
+    #[serde(default)]
+    encoder_sign: Option<Spanned<EncoderSignToml>>,
+}
+
+/// `encoder_sign`: one sign for every cable, or one per cable.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+enum EncoderSignToml {
+    All(i64),
+    PerCable(Vec<i64>),
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -172,6 +184,25 @@ struct RobotToml {
     #[serde(default)]
     winch: Option<Spanned<WinchToml>>,
     cable: Vec<Spanned<CableToml>>,
+}
+
+/// The winches' motor encoders: cable `i`'s length is
+/// `L_i = L_home_i + s_i * (counts_i - counts_home_i) * 2 pi r / (cpr * G)`
+/// (`docs/conventions.md`, "Robot description files"), `r` the drum radius
+/// and `G` the gear ratio of `[winch]`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EncoderSpec {
+    /// Counts per motor revolution `cpr` (after quadrature decoding).
+    pub counts_per_revolution: u32,
+    /// `s_i` per cable, `+1` or `-1`: `+1` when the counts rise as the
+    /// cable pays out (gets longer).
+    pub signs: Vec<i8>,
+}
+
+impl EncoderSpec {
+    /// Counts per motor revolution when the file does not say: a
+    /// 1024-line incremental encoder read in quadrature.
+    pub const DEFAULT_COUNTS_PER_REVOLUTION: u32 = 4096;
 }
 
 /// One cable of a robot file.
@@ -206,6 +237,9 @@ pub struct RobotFile {
     pub inertia: [[f64; 3]; 3],
     /// Winch data, when present.
     pub winch: Option<[f64; 4]>,
+    /// The winches' motor encoders (`[winch]`'s `counts_per_revolution`
+    /// and `encoder_sign`; the defaults when absent).
+    pub encoder: EncoderSpec,
     /// The cables in file order.
     pub cables: Vec<CableSpec>,
 }
@@ -249,6 +283,7 @@ impl RobotFile {
                 let w = w.get_ref();
                 [w.drum_radius, w.gear_ratio, w.efficiency, w.torque_max]
             }),
+            encoder: encoder_spec(text, raw.winch.as_ref().map(Spanned::get_ref), raw.cable.len())?,
             cables: raw
                 .cable
                 .iter()
@@ -386,6 +421,48 @@ impl RobotFile {
     }
 }
 
+/// `[winch]`'s encoder keys, checked: `counts_per_revolution` a positive
+/// integer that fits `u32`, `encoder_sign` `1` or `-1`, or a list of those
+/// with one entry per cable.
+fn encoder_spec(text: &str, winch: Option<&WinchToml>, cables: usize) -> Result<EncoderSpec, RobotFileError> {
+    let format = |what: String, span: Range<usize>| {
+        RobotFileError::new(RobotFileErrorKind::Format(what), Some(Location::of_offset(text, span.start)))
+    };
+    let counts_per_revolution = match winch.and_then(|w| w.counts_per_revolution.as_ref()) {
+        None => EncoderSpec::DEFAULT_COUNTS_PER_REVOLUTION,
+        Some(cpr) => u32::try_from(*cpr.get_ref()).ok().filter(|&c| c > 0).ok_or_else(|| {
+            format(
+                format!(
+                    "[winch] counts_per_revolution = {} must be a positive integer below 2^32",
+                    cpr.get_ref()
+                ),
+                cpr.span(),
+            )
+        })?,
+    };
+    let sign = |s: i64, span: Range<usize>| match s {
+        1 => Ok(1i8),
+        -1 => Ok(-1i8),
+        _ => Err(format(format!("[winch] encoder_sign: {s} must be 1 or -1"), span)),
+    };
+    let signs = match winch.and_then(|w| w.encoder_sign.as_ref()) {
+        None => vec![1; cables],
+        Some(spanned) => match spanned.get_ref() {
+            EncoderSignToml::All(s) => vec![sign(*s, spanned.span())?; cables],
+            EncoderSignToml::PerCable(list) if list.len() == cables => {
+                list.iter().map(|&s| sign(s, spanned.span())).collect::<Result<_, _>>()?
+            }
+            EncoderSignToml::PerCable(list) => {
+                return Err(format(
+                    format!("[winch] encoder_sign has {} entries, the file has {cables} cables", list.len()),
+                    spanned.span(),
+                ))
+            }
+        },
+    };
+    Ok(EncoderSpec { counts_per_revolution, signs })
+}
+
 /// `tension-core`'s checks of a platform and of one cable's geometry: a
 /// one-DOF-short robot (planar2, the cable twice) built from them.
 fn probe_robot(
@@ -442,6 +519,37 @@ attach = [0.0, 0.0, 0.0]
         assert!(RobotFile::parse(&format!("{base}colour = 3\n")).is_err());
         let e = RobotFile::parse(&base.replace("t_min = 1.0", "t_min = 20.0")).unwrap_err();
         assert!(matches!(e.kind, RobotFileErrorKind::Invalid(..)));
+    }
+
+    /// `[winch]`'s encoder keys: defaults when absent, a scalar sign for
+    /// every cable or one per cable, and errors that say where.
+    #[test]
+    fn encoder_keys() {
+        let base = "name = \"t\"\nkind = \"planar2\"\n[limits]\nt_min = 1.0\nt_max = 10.0\n[platform]\nmass = 2.0\ngravity = [0.0, -9.81, 0.0]\n[winch]\ndrum_radius = 0.04\ngear_ratio = 8.0\nefficiency = 0.9\ntorque_max = 2.5\n[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n[[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n";
+        let default = RobotFile::parse(base).unwrap().encoder;
+        assert_eq!(default, EncoderSpec { counts_per_revolution: 4096, signs: vec![1, 1] });
+        let with = |keys: &str| {
+            RobotFile::parse(&base.replace("torque_max = 2.5\n", &format!("torque_max = 2.5\n{keys}\n")))
+        };
+        let e = with("counts_per_revolution = 16384\nencoder_sign = -1").unwrap().encoder;
+        assert_eq!(e, EncoderSpec { counts_per_revolution: 16384, signs: vec![-1, -1] });
+        assert_eq!(with("encoder_sign = [1, -1]").unwrap().encoder.signs, vec![1, -1]);
+        for bad in [
+            "counts_per_revolution = 0",
+            "counts_per_revolution = -5",
+            "counts_per_revolution = 4294967296",
+            "counts_per_revolution = 40.5",
+            "encoder_sign = 2",
+            "encoder_sign = [1, 0]",
+            "encoder_sign = [1, -1, 1]",
+        ] {
+            let err = with(bad).unwrap_err();
+            assert_eq!(err.at.map(|at| at.line), Some(14), "{bad}: {err}");
+        }
+        // No [winch]: the defaults, one sign per cable.
+        let none = base.split("[winch]").next().unwrap().to_string()
+            + &"[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n".repeat(3);
+        assert_eq!(RobotFile::parse(&none).unwrap().encoder.signs, vec![1, 1, 1]);
     }
 
     /// Errors carry `toml`'s span as a line and column, and the checks of
