@@ -4,13 +4,14 @@
 //! its logic is testable: robot files and pose tables read with errors that
 //! name the file, line and column; tensions along pose tables (`solve`) and
 //! smooth trajectories (`trajectory`, `compare`); the wrench-feasible
-//! workspace (`workspace`). Everything follows `docs/conventions.md` (poses, robot
+//! workspace (`workspace`); poses from cable lengths (`forward`). Everything follows `docs/conventions.md` (poses, robot
 //! files, CSV tables, method names) and uses `tension-core` in `f64`.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 mod error;
+pub mod forward;
 pub mod output;
 pub mod profiles;
 pub mod robot;

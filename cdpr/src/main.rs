@@ -5,7 +5,7 @@
 
 use std::process::ExitCode;
 
-use cdpr::{profiles, solve, workspace, CliError};
+use cdpr::{forward, profiles, solve, workspace, CliError};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -29,6 +29,8 @@ enum Command {
     Workspace(workspace::WorkspaceArgs),
     /// Every method on the same trajectory, side by side.
     Compare(profiles::CompareArgs),
+    /// Poses from measured cable lengths (forward kinematics): CSV in, CSV out.
+    Forward(forward::ForwardArgs),
 }
 
 fn run(cli: Cli) -> Result<(), CliError> {
@@ -46,6 +48,10 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let report = workspace::run(&args)?;
             print!("{}", report.summary);
             println!("wrote {} files to {}", report.files.len(), args.out.display());
+        }
+        Command::Forward(args) => {
+            let report = forward::run(&args)?;
+            println!("{report}; wrote {}", args.out.display());
         }
         Command::Compare(args) => {
             let report = profiles::run_compare(&args)?;

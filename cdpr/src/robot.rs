@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::SVector;
 use robot_file::{RobotFile, RobotFileError, RobotFileErrorKind};
-use tension_core::{Error, Method, Motion, Robot, RobotKind, TensionSolver};
+use tension_core::{Error, ForwardError, ForwardSettings, Method, Motion, Robot, RobotKind, TensionSolver};
 
 use crate::CliError;
 
@@ -174,6 +174,19 @@ pub trait Model: Send + Sync {
     fn mass(&self) -> f64;
     /// A solver for one method, with its own warm-start state.
     fn solver(&self, method: Method) -> Box<dyn ShapeSolver>;
+    /// The forward kinematics of `m` lengths, warm-started from `warm`
+    /// (`n` numbers) with [`ForwardSettings::for_robot`]'s settings.
+    fn forward(&self, lengths: &[f64], warm: Option<&[f64]>) -> ForwardRow;
+}
+
+/// One row of `cdpr forward`: the pose or why not, and the worst residual
+/// of the answer (or of the closest pose found, when there is one).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForwardRow {
+    /// The pose (`n` numbers) or the reason.
+    pub pose: Result<Vec<f64>, ForwardError>,
+    /// Largest `|residual|`, m.
+    pub residual: Option<f64>,
 }
 
 /// A warm-started solver for one robot and one method.
@@ -214,6 +227,18 @@ impl<const N: usize, const M: usize> Model for Shaped<N, M> {
     }
     fn solver(&self, method: Method) -> Box<dyn ShapeSolver> {
         Box::new(ShapedSolver { robot: self.robot.clone(), solver: TensionSolver::<f64, M>::new(method) })
+    }
+    fn forward(&self, lengths: &[f64], warm: Option<&[f64]>) -> ForwardRow {
+        if lengths.len() != M || warm.is_some_and(|w| w.len() != N) {
+            return ForwardRow { pose: Err(ForwardError::UnsupportedShape), residual: None };
+        }
+        let l = SVector::<f64, M>::from_column_slice(lengths);
+        let warm = warm.map(SVector::<f64, N>::from_column_slice);
+        let settings = ForwardSettings::for_robot(&self.robot);
+        match self.robot.forward_kinematics_attempt(&l, warm.as_ref(), &settings) {
+            Ok(sol) => ForwardRow { pose: Ok(sol.pose.iter().copied().collect()), residual: Some(sol.worst) },
+            Err(f) => ForwardRow { pose: Err(f.error), residual: f.closest.map(|c| c.worst) },
+        }
     }
 }
 

@@ -23,8 +23,9 @@
 //! [`solve`] runs one method on `W`, `f` and the limits; [`TensionSolver`]
 //! does the same with the warm-start state a control loop carries
 //! ([`PreviousCycle`]); [`trajectory::time_law`] is the point-to-point time
-//! law the tools and tests move along. The numerical tolerances the methods
-//! share are in [`tolerance`].
+//! law the tools and tests move along. [`Robot::forward_kinematics`]
+//! ([`forward_kinematics`]) finds the pose from measured cable lengths.
+//! The numerical tolerances the methods share are in [`tolerance`].
 
 #![no_std]
 #![forbid(unsafe_code)]
@@ -32,6 +33,7 @@
 
 pub mod active_set;
 mod error;
+pub mod forward_kinematics;
 pub mod kinematics;
 mod limits;
 pub mod linalg;
@@ -46,6 +48,7 @@ pub mod tolerance;
 pub mod trajectory;
 
 pub use error::Error;
+pub use forward_kinematics::{ForwardError, ForwardFailure, ForwardSettings, ForwardSolution};
 pub use kinematics::{CableState, Motion, MotorTorque, Platform, Pose, Robot, RobotKind, Winch};
 pub use limits::TensionLimits;
 pub use methods::analytic_centre::{

@@ -277,6 +277,80 @@ pub fn cholesky_solve_leading<T: Real, const M: usize>(
     }
 }
 
+/// `A = L D L^T` of a small symmetric positive definite matrix (only the
+/// lower triangle of `A` is read): `L` unit lower triangular, `D` diagonal,
+/// no square roots, `N^3 / 6` multiply-adds, a fixed number of steps (no
+/// pivoting, no iteration), so nothing loops or panics on NaN. Used for the
+/// normal equations of the forward kinematics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ldl<T: Real, const N: usize> {
+    /// `L` strictly below the diagonal, `D` on it.
+    factor: SMatrix<T, N, N>,
+}
+
+impl<T: Real, const N: usize> Ldl<T, N> {
+    /// Factors `a`. [`Error::Singular`] when a pivot `d_j` is not above
+    /// `16 N eps a_jj` (a zero, negative or NaN pivot included): the rounding
+    /// of the elimination is a few `N eps a_jj`, so a smaller pivot is noise.
+    /// On success also returns `max_j a_jj / d_j`: with `A = J^T J` this is
+    /// `1 / min_j sin^2(phi_j)`, `phi_j` the angle between column `j` of `J`
+    /// and the span of the columns before it, the inverse squared smallest
+    /// diagonal entry of the Cholesky factor of `J` with unit columns, and a
+    /// lower bound on that matrix's squared condition number.
+    pub fn factor(a: &SMatrix<T, N, N>) -> Result<(Self, T), Error> {
+        let mut f = *a;
+        let mut ratio = T::one();
+        let floor = T::lit(16.0) * T::lit(N as f64) * T::eps();
+        for j in 0..N {
+            let mut d = a[(j, j)];
+            for p in 0..j {
+                d -= f[(j, p)] * f[(j, p)] * f[(p, p)];
+            }
+            if !greater(d, floor * a[(j, j)]) || !d.is_finite() {
+                return Err(Error::Singular);
+            }
+            f[(j, j)] = d;
+            let q = a[(j, j)] / d;
+            if q > ratio {
+                ratio = q;
+            }
+            for i in (j + 1)..N {
+                let mut s = a[(i, j)];
+                for p in 0..j {
+                    s -= f[(i, p)] * f[(j, p)] * f[(p, p)];
+                }
+                f[(i, j)] = s / d;
+            }
+        }
+        Ok((Self { factor: f }, ratio))
+    }
+
+    /// Solves `A x = b` (forward substitution, diagonal, back substitution:
+    /// `N^2` multiply-adds and `N` divisions).
+    pub fn solve(&self, b: &SVector<T, N>) -> SVector<T, N> {
+        let f = &self.factor;
+        let mut x = *b;
+        for i in 0..N {
+            let mut s = x[i];
+            for p in 0..i {
+                s -= f[(i, p)] * x[p];
+            }
+            x[i] = s;
+        }
+        for i in 0..N {
+            x[i] /= f[(i, i)];
+        }
+        for i in (0..N).rev() {
+            let mut s = x[i];
+            for p in (i + 1)..N {
+                s -= f[(p, i)] * x[p];
+            }
+            x[i] = s;
+        }
+        x
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -344,5 +418,25 @@ mod tests {
         let mut indefinite = SMatrix::<f64, 2, 2>::new(1.0, 2.0, 2.0, 1.0);
         let mut rhs = SVector::<f64, 2>::new(1.0, 1.0);
         assert_eq!(cholesky_solve_leading(&mut indefinite, &mut rhs, 2).unwrap_err(), Error::Singular);
+    }
+
+    #[test]
+    fn ldl_solves_and_refuses_singular_and_nan() {
+        let a = SMatrix::<f64, 3, 3>::new(4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0);
+        let b = SVector::<f64, 3>::new(1.0, -2.0, 0.5);
+        let (f, ratio) = Ldl::factor(&a).unwrap();
+        let x = f.solve(&b);
+        assert!((a * x - b).amax() < 1e-14);
+        assert!((1.0..2.0).contains(&ratio));
+        let singular = SMatrix::<f64, 2, 2>::new(1.0, 2.0, 2.0, 4.0);
+        assert_eq!(Ldl::factor(&singular).unwrap_err(), Error::Singular);
+        let indefinite = SMatrix::<f64, 2, 2>::new(1.0, 2.0, 2.0, 1.0);
+        assert_eq!(Ldl::factor(&indefinite).unwrap_err(), Error::Singular);
+        let zero_column = SMatrix::<f64, 2, 2>::new(1.0, 0.0, 0.0, 0.0);
+        assert_eq!(Ldl::factor(&zero_column).unwrap_err(), Error::Singular);
+        let nan = SMatrix::<f64, 2, 2>::new(1.0, f64::NAN, f64::NAN, 1.0);
+        assert_eq!(Ldl::factor(&nan).unwrap_err(), Error::Singular);
+        let inf = SMatrix::<f32, 2, 2>::new(f32::INFINITY, 0.0, 0.0, 1.0);
+        assert_eq!(Ldl::factor(&inf).unwrap_err(), Error::Singular);
     }
 }
