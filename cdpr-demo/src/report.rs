@@ -102,6 +102,9 @@ pub struct Report {
     /// Cost of the pose estimator (the forward kinematics' Gauss-Newton
     /// step) in the cycles it ran.
     pub estimator: Spread,
+    /// Cost of `tension_core`'s forward kinematics, warm from the previous
+    /// answer, replayed over the encoders' stand-in along the script.
+    pub forward: Spread,
 }
 
 impl Report {
@@ -187,6 +190,7 @@ mod tests {
             method_worst: [u32::MAX; 10],
             receive_worst: u32::MAX,
             estimator: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
+            forward: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
         }
     }
 

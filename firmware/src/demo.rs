@@ -215,6 +215,7 @@ pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
     print_loop_results(board, &results, &step, &barycenter, &estimator);
     barycenter_phases(&board.clock);
     let method_worst = replay_other_methods(&board.clock, &mut results.solver, barycenter.max);
+    let forward = replay_forward_kinematics(&board.clock, &mut results.solver);
 
     let (torques, brakes) = drives::drive_outputs();
     defmt::println!(
@@ -232,6 +233,7 @@ pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
     let report = Report {
         method_worst,
         receive_worst,
+        forward,
         ..summarise(board, &results, &step, &barycenter, &estimator, code)
     };
     log_record(&Record::Finished(report));
@@ -553,6 +555,75 @@ fn replay_other_methods(clock: &Tim2Counter, solver: &mut Samples, barycenter: u
     worst
 }
 
+/// `tension_core`'s forward kinematics (`Robot::forward_kinematics`, its
+/// default settings: warm run, chord steps, the bounded cold start when
+/// the warm run fails) over the lengths of the encoders' stand-in as it
+/// follows the script (not real time, after the loop; interrupts off for
+/// each call), each call warm-started from the previous answer. The
+/// in-loop estimator is its one-step special case about the setpoint; this
+/// is the full solver's own cost on the board. Returns min, median, max.
+fn replay_forward_kinematics(clock: &Tim2Counter, samples: &mut Samples) -> Spread {
+    use cdpr_control::setpoint::Pose6;
+    use tension_core::forward_kinematics::ForwardSettings;
+    samples.clear();
+    let controller = controller(Method::Barycenter);
+    let robot = controller.robot();
+    let settings = ForwardSettings::for_robot(robot);
+    let Ok(scale) = crate::robot::encoder_scale() else { return Spread::default() };
+    let start = trajectory::script(0).pose;
+    let Some(mut winches) = cdpr_demo::winches::LagWinches::at_pose(robot, scale, &start) else {
+        return Spread::default();
+    };
+    let mut warm: Option<Pose6> = Some(start);
+    let (mut ok, mut failed, mut cold, mut iterations, mut worst_residual) = (0u32, 0u32, 0u32, 0u32, 0.0f32);
+    let (mut worst_warm, mut worst_cold) = (0u32, 0u32);
+    for k in 0..CYCLES as u32 {
+        winches.follow(robot, Some(&trajectory::script(k).pose), 0.001);
+        let lengths = tension_core::nalgebra::SVector::<f32, CABLES>::from(*winches.lengths());
+        let (ticks, result) = cortex_m::interrupt::free(|_| {
+            let t = clock.ticks();
+            let result = robot.forward_kinematics(&lengths, warm.as_ref(), &settings);
+            (clock.since(t), result)
+        });
+        let cost = units(ticks);
+        samples.push(cost);
+        match result {
+            Ok(solution) => {
+                ok += 1;
+                warm = Some(solution.pose);
+                iterations = iterations.max(solution.iterations);
+                if solution.worst > worst_residual {
+                    worst_residual = solution.worst;
+                }
+                if solution.cold_started {
+                    cold += 1;
+                    worst_cold = worst_cold.max(cost);
+                } else {
+                    worst_warm = worst_warm.max(cost);
+                }
+            }
+            Err(_) => failed += 1,
+        }
+    }
+    let s = samples.summary();
+    defmt::println!(
+        "forward kinematics (tension-core, warm from the previous answer, replayed over the stand-in's lengths) {=str}: min {=u32} median {=u32} max {=u32} over {=u32} calls; worst warm {=u32}, worst with a cold start {=u32} ({=u32} cold starts); {=u32} ok, {=u32} failed; most iterations {=u32}, worst residual {=u32} um",
+        bsp::UNIT,
+        s.min,
+        s.median,
+        s.max,
+        s.count,
+        worst_warm,
+        worst_cold,
+        cold,
+        ok,
+        failed,
+        iterations,
+        (worst_residual * 1e6) as u32,
+    );
+    Spread { min: s.min, median: s.median, max: s.max }
+}
+
 /// Cycles of each kind of byte flood [`receive_flood`] times.
 const FLOOD_CYCLES: u32 = 16;
 
@@ -687,6 +758,7 @@ fn summarise(
         exit_code,
         method_worst: [0; 10],
         receive_worst: 0,
+        forward: Spread::default(),
     }
 }
 
