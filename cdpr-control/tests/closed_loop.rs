@@ -420,3 +420,43 @@ fn the_fused_kinematics_are_tension_cores() {
     };
     assert_eq!(control.controller().kinematics(&nan).unwrap_err(), tension_core::Error::NonFinite);
 }
+
+#[test]
+fn the_estimate_agrees_with_tension_cores_forward_kinematics() {
+    use tension_core::forward_kinematics::ForwardSettings;
+    let mut rig = Rig::homed();
+    let robot = rig.control.controller().robot().clone();
+    let settings = ForwardSettings::for_robot(&robot);
+    for offset in
+        [[0.005, -0.003, 0.002, 0.003, -0.002, 0.004], [-0.01, 0.008, -0.006, -0.004, 0.005, -0.006]]
+    {
+        let mut true_pose = POSE;
+        for (p, o) in true_pose.iter_mut().zip(offset) {
+            *p += o;
+        }
+        let lengths = lengths_at(&rig.control, true_pose);
+        rig.set_lengths(&lengths);
+        let e = rig.step_at(POSE).estimate.unwrap().unwrap();
+        // The same encoder lengths (quantised to a count) through the full solver.
+        let measured = rig.control.encoder().lengths(rig.control.homing().unwrap(), rig.control.readings());
+        let fk = robot
+            .forward_kinematics(
+                &tension_core::nalgebra::SVector::<f32, CABLES>::from(measured),
+                Some(&Pose6::from(POSE)),
+                &settings,
+            )
+            .unwrap();
+        // One step about the setpoint: the linearisation leaves about
+        // |delta|^2 / L (13 um at 12 mm, 2 m cables).
+        let tol = if offset[0].abs() > 0.008 { 1e-4 } else { 3e-5 };
+        for k in 0..6 {
+            assert!(
+                (e.pose[k] - fk.pose[k]).abs() < tol,
+                "{k}: {} vs {} ({:?})",
+                e.pose[k],
+                fk.pose[k],
+                offset
+            );
+        }
+    }
+}
