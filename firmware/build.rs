@@ -121,5 +121,15 @@ fn generate(path: &Path) -> Result<String, String> {
         "/// `[winch] torque_max`, N m at the motor.\npub const TORQUE_MAX: f32 = {};",
         lit(winch[3])
     );
+    let _ = writeln!(
+        s,
+        "/// `[winch] counts_per_revolution`: motor encoder counts per motor turn.\npub const COUNTS_PER_REVOLUTION: u32 = {};",
+        file.encoder.counts_per_revolution
+    );
+    let _ = writeln!(
+        s,
+        "/// `[winch] encoder_sign` per cable (`1`: the counts rise as the cable pays out).\npub const ENCODER_SIGNS: [i8; CABLES] = {};",
+        list(file.encoder.signs.iter().map(|s| s.to_string()))
+    );
     Ok(s)
 }

@@ -6,25 +6,57 @@
 //!    [`RECEIVE_BUDGET`] a cycle, or one by one to
 //!    [`ControlLoop::receive_byte`] (or a decoded message to
 //!    [`ControlLoop::receive`]);
-//! 2. once per period [`ControlLoop::step`] solves the newest setpoint,
-//!    lets the supervisor decide, writes the drives and returns the
-//!    telemetry due this cycle;
+//! 2. once per period [`ControlLoop::step`] reads the winch encoders
+//!    (counts -> cable lengths, [`crate::encoder`]), checks the lengths
+//!    against the last feasible setpoint's, solves the newest setpoint's
+//!    kinematics, estimates the pose (one Gauss-Newton step,
+//!    [`crate::estimator`]), runs the selected feedback scheme
+//!    ([`crate::feedback::Scheme`]) and the tension distribution, lets the
+//!    supervisor decide, writes the drives and returns the telemetry due
+//!    this cycle;
 //! 3. the caller reports the step's measured cost with
 //!    [`ControlLoop::record_cost`] (it appears in the next telemetry).
 
 use cdpr_protocol::{Counters, HostMessage, Reason, Rejection, State, Telemetry};
 use tension_core::{Error, Method};
 
-use crate::controller::{Controller, Cycle, Wrench};
-use crate::drives::WinchDrives;
+use crate::controller::{Controller, Cycle, PhaseTicks, Saturation, Wrench};
+use crate::drives::{WinchDrives, WinchReading};
+use crate::encoder::{EncoderScale, Homing};
+use crate::estimator::{Estimate, EstimateError, Estimator, EstimatorSettings, OwnedReference, Reference};
+use crate::feedback::{length_rates, FeedbackLimits, Gains, JointGains, JointPid, Scheme, TaskPid};
 use crate::link::{Event, JumpLimits, Link, SetpointRange};
 use crate::robot::ControlRobot;
-use crate::setpoint::Setpoint;
+use crate::setpoint::{Pose6, Setpoint};
 use crate::supervisor::{Requests, SafetyLimits, SetpointStatus, Supervisor};
 use crate::{TickCounter, CABLES};
 
 /// Telemetry period at start-up, cycles.
 pub const DEFAULT_TELEMETRY_PERIOD: u16 = 10;
+
+/// The tracking limit at start-up: a cable length more than this (m) off
+/// the last feasible setpoint's, in Enabled or Holding, faults
+/// (`Reason::Tracking`).
+pub const DEFAULT_TRACKING_LIMIT: f32 = 0.02;
+
+/// The feedback bandwidth of the default gains: both schemes' triple pole
+/// at `-2 pi 5 Hz` (`feedback::Gains::triple_pole`,
+/// `feedback::JointGains::triple_pole`), a tenth of the estimator's speed
+/// filter and well below the cables' and winches' first modes (tens of Hz
+/// on a robot of this size).
+pub const DEFAULT_OMEGA: f32 = 2.0 * core::f32::consts::PI * 5.0;
+
+/// The default task-space PID's bounds: 20 N, 2 N m, integral 10 N and
+/// 1 N m per axis. A suspended robot makes horizontal forces only through
+/// its cables' slant: on suspended-8 a 50 N sideways push already leaves
+/// the tension polygon at ordinary poses, and a feedback wrench that
+/// leaves it makes the setpoint infeasible (Holding), so the bound is a
+/// third of the platform's weight (62 N).
+pub const DEFAULT_FEEDBACK_LIMITS: FeedbackLimits =
+    FeedbackLimits { force_max: 20.0, moment_max: 2.0, integral_max: [10.0, 10.0, 10.0, 1.0, 1.0, 1.0] };
+
+/// The default joint-space integral bound per cable, N.
+pub const DEFAULT_JOINT_INTEGRAL_MAX: f32 = 10.0;
 
 /// Most received bytes [`ControlLoop::receive_bytes`] takes in one cycle:
 /// the receive work per cycle is bounded whatever arrives. On the board
@@ -88,6 +120,15 @@ pub struct StepReport {
     pub brakes: bool,
     /// Telemetry due this cycle.
     pub telemetry: Option<Telemetry>,
+    /// The pose estimate this cycle, or why there is none (`None`: not
+    /// homed or a drive unreadable).
+    pub estimate: Option<Result<Estimate, EstimateError>>,
+    /// The task-space feedback wrench the cables added (zero otherwise).
+    pub feedback: Wrench,
+    /// The joint-space feedback's tension changes, N (zero otherwise).
+    pub offsets: [f32; CABLES],
+    /// The drive that could not be read this cycle.
+    pub unreadable_drive: Option<u8>,
 }
 
 /// The per-cycle logic with its state.
@@ -105,18 +146,64 @@ pub struct ControlLoop {
     last_feasible: Option<Setpoint>,
     /// The methods `SelectMethod` may choose.
     offered: MethodSet,
+    scale: EncoderScale,
+    homing: Option<Homing>,
+    pending_home: Option<Pose6>,
+    readings: [WinchReading; CABLES],
+    estimator: Estimator,
+    scheme: Scheme,
+    task_pid: TaskPid,
+    joint_pid: Option<JointPid>,
+    tracking_limit: Option<f32>,
+    /// The inverse kinematics of `last_feasible`.
+    feasible_lengths: Option<[f32; CABLES]>,
 }
 
 impl ControlLoop {
     /// A loop for `robot` with `method`, accepting setpoints within `range`,
-    /// with the supervisor's `limits`. Starts Disabled.
+    /// with the supervisor's `limits`. Starts Disabled, unhomed, with
+    /// feed-forward only; the encoders are the robot file's defaults for
+    /// the robot's winch (4096 counts per revolution, every sign +1:
+    /// [`ControlLoop::set_encoder`] sets the file's), the estimator's
+    /// [`EstimatorSettings::DEFAULT`], the tracking limit
+    /// [`DEFAULT_TRACKING_LIMIT`], and both feedback schemes' gains the
+    /// triple pole at [`DEFAULT_OMEGA`] (the joint-space gains at the
+    /// centre of the setpoint range's box, unrotated; without them, e.g.
+    /// where that pose has no kinematics, `SelectFeedback(2)` is refused).
     pub fn new(
         robot: ControlRobot,
         method: Method,
         range: SetpointRange,
         limits: SafetyLimits,
     ) -> Result<Self, Error> {
+        let winch = *robot.winch().ok_or(Error::UnsupportedShape)?;
+        let scale = EncoderScale::with_defaults(winch.drum_radius, winch.gear_ratio)
+            .map_err(|_| Error::InvalidLimits)?;
+        let platform = robot.platform();
+        let inertia = [platform.inertia[(0, 0)], platform.inertia[(1, 1)], platform.inertia[(2, 2)]];
+        let gains = Gains::triple_pole(platform.mass, inertia, DEFAULT_OMEGA, DEFAULT_OMEGA);
+        let centre = Pose6::new(
+            0.5 * (range.position_min[0] + range.position_max[0]),
+            0.5 * (range.position_min[1] + range.position_max[1]),
+            0.5 * (range.position_min[2] + range.position_max[2]),
+            0.0,
+            0.0,
+            0.0,
+        );
+        let joint_pid = JointGains::triple_pole(&robot, &centre, DEFAULT_OMEGA, DEFAULT_JOINT_INTEGRAL_MAX)
+            .ok()
+            .map(JointPid::new);
         Ok(Self {
+            scale,
+            homing: None,
+            pending_home: None,
+            readings: [WinchReading::default(); CABLES],
+            estimator: Estimator::new(EstimatorSettings::DEFAULT),
+            scheme: Scheme::FeedForward,
+            task_pid: TaskPid::new(gains, DEFAULT_FEEDBACK_LIMITS),
+            joint_pid,
+            tracking_limit: Some(DEFAULT_TRACKING_LIMIT),
+            feasible_lengths: None,
             controller: Controller::new(robot, method)?,
             supervisor: Supervisor::new(limits),
             link: Link::new(range),
@@ -204,6 +291,82 @@ impl ControlLoop {
         None
     }
 
+    /// The winch encoders' scale (from the robot file: `[winch]`'s
+    /// `counts_per_revolution` and `encoder_sign`); forgets the homing.
+    pub fn set_encoder(&mut self, scale: EncoderScale) {
+        self.scale = scale;
+        self.homing = None;
+        self.estimator.forget();
+    }
+
+    /// The encoder scale.
+    pub fn encoder(&self) -> &EncoderScale {
+        &self.scale
+    }
+
+    /// The homing offsets, once homed.
+    pub fn homing(&self) -> Option<&Homing> {
+        self.homing.as_ref()
+    }
+
+    /// Whether the loop is homed (Enable is refused until it is).
+    pub fn homed(&self) -> bool {
+        self.homing.is_some()
+    }
+
+    /// The last encoder readings.
+    pub fn readings(&self) -> &[WinchReading; CABLES] {
+        &self.readings
+    }
+
+    /// The estimator.
+    pub fn estimator(&self) -> &Estimator {
+        &self.estimator
+    }
+
+    /// The estimator's settings (the estimate's speed restarts).
+    pub fn set_estimator(&mut self, settings: EstimatorSettings) {
+        let last = self.estimator.last().copied();
+        self.estimator = Estimator::new(settings);
+        if let Some(pose) = last {
+            self.estimator.reset(&pose);
+        }
+    }
+
+    /// The feedback scheme in use.
+    pub fn scheme(&self) -> Scheme {
+        self.scheme
+    }
+
+    /// The task-space PID (gains and bounds; its integral restarts).
+    pub fn set_task_pid(&mut self, pid: TaskPid) {
+        self.task_pid = pid;
+        self.task_pid.reset();
+    }
+
+    /// The task-space PID.
+    pub fn task_pid(&self) -> &TaskPid {
+        &self.task_pid
+    }
+
+    /// The joint-space gains (`None`: the scheme is not offered).
+    pub fn set_joint_gains(&mut self, gains: Option<JointGains>) {
+        self.joint_pid = gains.map(JointPid::new);
+        if self.joint_pid.is_none() && self.scheme == Scheme::JointSpace {
+            self.scheme = Scheme::FeedForward;
+        }
+    }
+
+    /// The joint-space PID, if offered.
+    pub fn joint_pid(&self) -> Option<&JointPid> {
+        self.joint_pid.as_ref()
+    }
+
+    /// The tracking limit of the step's own length check (m; `None`: off).
+    pub fn set_tracking_limit(&mut self, limit: Option<f32>) {
+        self.tracking_limit = limit;
+    }
+
     /// The next cycle's number.
     pub fn cycle(&self) -> u32 {
         self.cycle
@@ -264,7 +427,35 @@ impl ControlLoop {
         match event {
             Event::Setpoint(s) => self.newest = Newest::Good(s, self.cycle),
             Event::BadSetpoint => self.newest = Newest::Bad,
-            Event::Enable => self.requests.enable = true,
+            Event::Enable => {
+                if self.homing.is_some() {
+                    self.requests.enable = true;
+                } else {
+                    self.counters.reject(Rejection::Homing);
+                }
+            }
+            // Carried out in the next step, which reads the encoders.
+            Event::Home(pose) => {
+                if self.supervisor.state() == State::Disabled {
+                    self.pending_home = Some(pose);
+                } else {
+                    self.counters.reject(Rejection::State);
+                }
+            }
+            Event::SelectFeedback(scheme) => {
+                let offered = scheme != Scheme::JointSpace || self.joint_pid.is_some();
+                if !offered {
+                    self.counters.reject(Rejection::Range);
+                } else if self.supervisor.state() != State::Disabled {
+                    self.counters.reject(Rejection::State);
+                } else {
+                    self.scheme = scheme;
+                    self.task_pid.reset();
+                    if let Some(pid) = &mut self.joint_pid {
+                        pid.reset();
+                    }
+                }
+            }
             Event::Disable => self.requests.disable = true,
             Event::ClearFault => self.requests.clear_fault = true,
             Event::TelemetryPeriod(p) => self.telemetry_period = p,
@@ -288,35 +479,169 @@ impl ControlLoop {
         self.last_cost = cost;
     }
 
-    /// One control cycle. `extra` is an external wrench on the platform
-    /// (base frame, about the platform origin) that the cables must balance
-    /// on top of gravity and the setpoint's inertia, so the cables produce
-    /// `-extra` more: pass the negative of a feedback wrench
-    /// (`feedback::TaskPid::update`), zero for feed-forward only; `overrun`
-    /// says whether the previous cycle missed its deadline; `clock` times
-    /// the controller's phases.
+    /// One control cycle: reads the drives (counts -> lengths), carries out
+    /// a pending `Home`, checks the lengths against the last feasible
+    /// setpoint's, solves the newest setpoint with the selected feedback
+    /// (pose estimate -> task-space wrench or joint-space tension changes),
+    /// lets the supervisor decide and writes the drives. `overrun` says
+    /// whether the previous cycle missed its deadline; `clock` times the
+    /// phases.
+    ///
+    /// * An unreadable drive: Fault (`Reason::Encoder`) from Enabled or
+    ///   Holding; in any state the homing is forgotten (the count may have
+    ///   jumped) and the drive is named in telemetry.
+    /// * An estimator failure while a setpoint solved: Holding
+    ///   (`Reason::Estimator`, the last feasible torques held, feedback
+    ///   off), a fault if it lasts `hold_cycles`; in Disabled it refuses
+    ///   Enable.
     pub fn step<C: TickCounter, D: WinchDrives>(
         &mut self,
         clock: &C,
         drives: &mut D,
-        extra: &Wrench,
         overrun: bool,
     ) -> StepReport {
         let now = self.cycle;
+        let state_before = self.supervisor.state();
+        let mut ticks = PhaseTicks::default();
+
+        // The encoders.
+        let t_read = clock.ticks();
+        let read = drives.read(&mut self.readings);
+        let mut unreadable_drive = None;
+        let mut encoder_fault = false;
+        if let Err(e) = &read {
+            unreadable_drive = Some(drives.failed_drive(e).map_or(u8::MAX, |i| i.min(254) as u8));
+            self.homing = None;
+            self.estimator.forget();
+            encoder_fault = true;
+        }
+        if let Some(pose) = self.pending_home.take() {
+            self.carry_out_home(&pose, read.is_ok());
+        }
+        let measured = self
+            .homing
+            .as_ref()
+            .map(|h| (self.scale.lengths(h, &self.readings), self.scale.rates(&self.readings)));
+        ticks.read = clock.since(t_read);
+
+        // The cycle's own length check (`check_lengths` with the cached
+        // inverse kinematics of the last feasible setpoint).
+        let mut faulted = false;
+        let mut off_track = false;
+        if let (Some((lengths, _)), Some(limit), Some(feasible)) =
+            (&measured, self.tracking_limit, &self.feasible_lengths)
+        {
+            let worst = lengths.iter().zip(feasible).map(|(l, f)| libm::fabsf(l - f)).fold(0.0f32, |m, e| {
+                if e <= m {
+                    m
+                } else if e.is_nan() {
+                    f32::INFINITY
+                } else {
+                    e
+                }
+            });
+            off_track = worst > limit;
+            if off_track
+                && matches!(state_before, State::Enabled | State::Holding)
+                && self.supervisor.fault(now, Reason::Tracking)
+            {
+                faulted = true;
+            }
+        }
+        if encoder_fault
+            && matches!(self.supervisor.state(), State::Enabled | State::Holding)
+            && self.supervisor.fault(now, Reason::Encoder)
+        {
+            faulted = true;
+        }
+
+        let closed = state_before == State::Enabled;
+        if matches!(state_before, State::Disabled | State::Fault) {
+            self.task_pid.reset();
+            if let Some(pid) = &mut self.joint_pid {
+                pid.reset();
+            }
+        }
         let mut solved = None;
+        let mut estimate = None;
+        let mut feedback = Wrench::zeros();
+        let mut offsets = [0.0; CABLES];
         let status = match self.newest {
             Newest::Nothing => SetpointStatus::Stale,
             Newest::Bad => SetpointStatus::Bad,
             Newest::Good(_, arrived) if now.wrapping_sub(arrived) > self.supervisor.limits().stale_cycles => {
                 SetpointStatus::Stale
             }
-            Newest::Good(setpoint, _) => {
-                let cycle = self.controller.step(&setpoint, extra, clock);
+            Newest::Good(setpoint, arrived) => {
+                let t0 = clock.ticks();
+                let kinematics = self.controller.kinematics(&setpoint);
+                let t1 = clock.ticks();
+                ticks.kinematics = t1.wrapping_sub(t0);
+                let result = match kinematics {
+                    Err(e) => Err(e),
+                    Ok(k) => {
+                        // The estimate, about the setpoint.
+                        estimate = measured.as_ref().map(|(lengths, _)| {
+                            let reference = Reference::of_setpoint(&setpoint.pose, &k);
+                            self.estimator.about(reference, lengths)
+                        });
+                        let t2 = clock.ticks();
+                        ticks.estimator = t2.wrapping_sub(t1);
+                        let age = now.wrapping_sub(arrived) as f32 * self.estimator.settings().period_s;
+                        let dt = self.estimator.settings().period_s;
+                        let joint = match (self.scheme, &measured, &estimate) {
+                            (Scheme::TaskSpace, _, Some(Ok(est))) => {
+                                feedback = task_feedback(
+                                    &mut self.task_pid,
+                                    self.controller.robot(),
+                                    &setpoint,
+                                    &k,
+                                    est,
+                                    age,
+                                    dt,
+                                    closed,
+                                );
+                                None
+                            }
+                            (Scheme::JointSpace, Some((lengths, rates)), Some(Ok(_))) => {
+                                let rates_d = length_rates(&k.w, &setpoint.velocity, &k.omega);
+                                let mut lengths_d = [0.0; CABLES];
+                                for (i, l) in lengths_d.iter_mut().enumerate() {
+                                    // Extrapolated over the setpoint's age.
+                                    *l = k.lengths[i] + rates_d[i] * age;
+                                }
+                                self.joint_pid.as_mut().and_then(|pid| {
+                                    pid.update(lengths, rates, &lengths_d, &rates_d, dt, closed).ok()
+                                })
+                            }
+                            _ => None,
+                        };
+                        if let Some(j) = joint {
+                            offsets = j;
+                        }
+                        ticks.feedback = clock.since(t2);
+                        self.controller
+                            .finish(&setpoint, &k, &feedback, joint.as_ref(), clock, &mut ticks)
+                            .map(|c| {
+                                let mut lengths = [0.0; CABLES];
+                                lengths.copy_from_slice(k.lengths.as_slice());
+                                (c, lengths)
+                            })
+                    }
+                };
+                let cycle = Cycle { result: result.map(|(c, _)| c), ticks };
                 solved = Some(cycle);
-                match cycle.result {
-                    Ok(c) if c.torques.iter().all(|t| t.is_finite()) => {
+                match result {
+                    Ok((c, lengths)) if c.torques.iter().all(|t| t.is_finite()) => {
+                        // The setpoint is feasible whatever the estimate:
+                        // the length check and the stand-in plant follow it.
                         self.last_feasible = Some(setpoint);
-                        SetpointStatus::Feasible(c.torques)
+                        self.feasible_lengths = Some(lengths);
+                        if matches!(estimate, Some(Err(_))) {
+                            SetpointStatus::Unobservable
+                        } else {
+                            SetpointStatus::Feasible(c.torques)
+                        }
                     }
                     Ok(_) => SetpointStatus::Bad,
                     Err(Error::Infeasible) => {
@@ -327,16 +652,34 @@ impl ControlLoop {
                 }
             }
         };
+        // No setpoint solved: the estimate from the last one (plain
+        // Gauss-Newton; the solver did not run, so its time is free).
+        if estimate.is_none() {
+            if let Some((lengths, _)) = &measured {
+                let t = clock.ticks();
+                estimate = Some(self.estimator.from_last(self.controller.robot(), lengths));
+                ticks.estimator = clock.since(t);
+                if let Some(c) = &mut solved {
+                    c.ticks.estimator = ticks.estimator;
+                }
+            }
+        }
         if overrun {
             self.counters.overruns = self.counters.overruns.wrapping_add(1);
         }
 
-        let requests = core::mem::take(&mut self.requests);
+        let mut requests = core::mem::take(&mut self.requests);
+        // Enable only where the platform is: within the tracking limit of
+        // the setpoint (it would fault on `tracking` at once otherwise).
+        if requests.enable && off_track {
+            requests.enable = false;
+            self.counters.reject(Rejection::State);
+        }
         let (mut output, decisions) = self.supervisor.cycle(now, requests, &status, overrun);
         for _ in 0..decisions.refused {
             self.counters.reject(Rejection::State);
         }
-        let mut faulted = decisions.faulted;
+        faulted |= decisions.faulted;
         if decisions.disabled {
             self.link.restart_sequence();
         }
@@ -363,6 +706,7 @@ impl ControlLoop {
         let telemetry = (self.telemetry_period != 0 && now.is_multiple_of(u32::from(self.telemetry_period)))
             .then(|| {
                 let ok = solved.and_then(|c| c.result.ok());
+                let limited = ok.map_or(Saturation::NONE, |c| c.limited);
                 Telemetry {
                     cycle: now,
                     setpoint_seq: self.newest_setpoint().map_or(0, |s| s.seq),
@@ -376,6 +720,19 @@ impl ControlLoop {
                     step_cost: self.last_cost,
                     counters: self.counters,
                     method: self.controller.method().wire_id(),
+                    estimate: self.estimator.last().map_or([0.0; 6], |p| (*p).into()),
+                    residual: match &estimate {
+                        Some(Ok(e)) => e.residual,
+                        _ => f32::NAN,
+                    },
+                    homed: self.homing.is_some(),
+                    feedback: self.scheme.wire_id(),
+                    unreadable_drive,
+                    tension_limited: limited
+                        .0
+                        .iter()
+                        .enumerate()
+                        .fold(0u8, |bits, (i, &l)| bits | (u8::from(l) << i)),
                 }
             });
         self.cycle = self.cycle.wrapping_add(1);
@@ -387,6 +744,78 @@ impl ControlLoop {
             torques: output.torques,
             brakes: output.brakes,
             telemetry,
+            estimate,
+            feedback,
+            offsets,
+            unreadable_drive,
         }
     }
+
+    /// A `Home` (Disabled when it was accepted; still Disabled now): the
+    /// offsets from the pose's inverse kinematics and this cycle's counts.
+    fn carry_out_home(&mut self, pose: &Pose6, readable: bool) {
+        if self.supervisor.state() != State::Disabled {
+            self.counters.reject(Rejection::State);
+            return;
+        }
+        if !readable {
+            self.counters.reject(Rejection::Homing);
+            return;
+        }
+        match OwnedReference::at(self.controller.robot(), pose) {
+            Some(reference) => {
+                let r = reference.as_ref();
+                let mut lengths = [0.0; CABLES];
+                lengths.copy_from_slice(r.lengths.as_slice());
+                self.homing = Some(self.scale.home(&lengths, &self.readings));
+                self.estimator.reset(pose);
+            }
+            None => self.counters.reject(Rejection::Range),
+        }
+    }
+}
+
+/// The task-space PID's wrench from the estimate about the setpoint: the
+/// pose error is minus the estimator's correction (`e = -delta`), moved
+/// by the setpoint's velocity over its `age` (s) so that the reference
+/// keeps moving while a frame is late; the rate error is the setpoint's
+/// velocity less the estimate's, its rotational part mapped to angular
+/// velocity at the setpoint's angles; `R c` at the setpoint's rotation
+/// (the kinematics' sines and cosines). Zero if the numbers are not
+/// finite.
+#[allow(clippy::too_many_arguments)]
+fn task_feedback(
+    pid: &mut TaskPid,
+    robot: &crate::robot::ControlRobot,
+    setpoint: &Setpoint,
+    k: &crate::controller::SetpointKinematics,
+    estimate: &Estimate,
+    age: f32,
+    dt: f32,
+    integrate: bool,
+) -> Wrench {
+    use tension_core::nalgebra::Vector3;
+    let v = &setpoint.velocity;
+    let omega_d = k.omega;
+    let ev = estimate.velocity;
+    let omega = k.trig.euler_rate_matrix() * Vector3::new(ev[3], ev[4], ev[5]);
+    let d = &estimate.delta;
+    let error = [
+        -d[0] + v[0] * age,
+        -d[1] + v[1] * age,
+        -d[2] + v[2] * age,
+        -d[3] + omega_d.x * age,
+        -d[4] + omega_d.y * age,
+        -d[5] + omega_d.z * age,
+    ];
+    let rates = [
+        v[0] - ev[0],
+        v[1] - ev[1],
+        v[2] - ev[2],
+        omega_d.x - omega.x,
+        omega_d.y - omega.y,
+        omega_d.z - omega.z,
+    ];
+    let rc = k.trig.rotation() * robot.platform().com;
+    pid.update_error(&error, &rates, &rc, dt, integrate).unwrap_or_else(|_| Wrench::zeros())
 }

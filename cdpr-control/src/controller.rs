@@ -3,8 +3,8 @@
 //! torques, optionally with the winches' friction compensated
 //! ([`FrictionCompensation`]).
 
-use tension_core::nalgebra::{SMatrix, SVector};
-use tension_core::{Error, Method, Motion, Robot, RobotKind, Solution, TensionSolver, WarmStart};
+use tension_core::nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use tension_core::{Error, Method, Motion, Real, Robot, RobotKind, Solution, TensionSolver, WarmStart};
 
 use crate::robot::{CABLES, DOF};
 use crate::setpoint::Setpoint;
@@ -50,6 +50,10 @@ pub struct Command<const M: usize = CABLES> {
     pub torques: [f32; M],
     /// The cables whose torque was limited to `torque_max`.
     pub saturated: Saturation<M>,
+    /// The cables whose tension the joint-space feedback's change would
+    /// have taken outside `t_min..t_max`: limited to the bound
+    /// (`tensions` are the limited ones).
+    pub limited: Saturation<M>,
     /// Smallest distance of a tension to its limits, N.
     pub robustness: f32,
     /// Vertices of the feasible polygon (barycenter methods).
@@ -68,6 +72,88 @@ pub struct PhaseTicks {
     pub solver: u32,
     /// Motor torques.
     pub torques: u32,
+    /// Reading the drives (set by the control loop).
+    pub read: u32,
+    /// The pose estimator (set by the control loop).
+    pub estimator: u32,
+    /// The feedback law (set by the control loop).
+    pub feedback: u32,
+}
+
+/// A setpoint's kinematics, computed once per cycle and shared by the
+/// tension distribution, the estimator and the feedback.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SetpointKinematics<const M: usize = CABLES> {
+    /// The inverse kinematics: cable lengths, m.
+    pub lengths: SVector<f32, M>,
+    /// The wrench matrix.
+    pub w: WrenchMatrix<M>,
+    /// The wrench the cables must produce (gravity, d'Alembert), no feedback.
+    pub f: Wrench,
+    /// The sines and cosines of the setpoint's Euler angles.
+    pub trig: Trig,
+    /// The setpoint's angular velocity, base frame, rad/s.
+    pub omega: Vector3<f32>,
+}
+
+/// The sines and cosines of a pose's Euler angles `rx, ry, rz`
+/// (conventions: `R = Rx(rx) Ry(ry) Rz(rz)`), computed once per cycle and
+/// shared by the kinematics, the estimator and the feedback.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Trig {
+    /// `sin rx`, `cos rx`.
+    pub sa: f32,
+    /// `cos rx`.
+    pub ca: f32,
+    /// `sin ry`.
+    pub sb: f32,
+    /// `cos ry`.
+    pub cb: f32,
+    /// `sin rz`.
+    pub sc: f32,
+    /// `cos rz`.
+    pub cc: f32,
+}
+
+impl Trig {
+    /// Of `pose`'s angles.
+    pub fn of(pose: &crate::setpoint::Pose6) -> Self {
+        let (sa, ca) = pose[3].sin_cos_native();
+        let (sb, cb) = pose[4].sin_cos_native();
+        let (sc, cc) = pose[5].sin_cos_native();
+        Self { sa, ca, sb, cb, sc, cc }
+    }
+
+    /// `R = Rx Ry Rz`.
+    pub fn rotation(&self) -> Matrix3<f32> {
+        let Self { sa, ca, sb, cb, sc, cc } = *self;
+        Matrix3::new(
+            cb * cc,
+            -cb * sc,
+            sb,
+            ca * sc + sa * sb * cc,
+            ca * cc - sa * sb * sc,
+            -sa * cb,
+            sa * sc - ca * sb * cc,
+            sa * cc + ca * sb * sc,
+            ca * cb,
+        )
+    }
+
+    /// The Euler-rate matrix `J`: `omega = J [rx' ry' rz']`.
+    pub fn euler_rate_matrix(&self) -> Matrix3<f32> {
+        let Self { sa, ca, sb, cb, .. } = *self;
+        Matrix3::new(1.0, 0.0, sb, 0.0, ca, -sa * cb, 0.0, sa, ca * cb)
+    }
+
+    /// The Euler-angle increments of a small rotation vector `w` (the
+    /// inverse of [`Trig::euler_rate_matrix`]; `cos ry` away from zero).
+    pub fn euler_increment(&self, w: &Vector3<f32>) -> Vector3<f32> {
+        let Self { sa, ca, sb, cb, .. } = *self;
+        let db = ca * w.y + sa * w.z;
+        let dc = (-sa * w.y + ca * w.z) / cb;
+        Vector3::new(w.x - sb * dc, db, dc)
+    }
 }
 
 /// One cycle's outcome and what each phase cost.
@@ -200,25 +286,46 @@ impl<const M: usize> Controller<M> {
 
     /// Motor torques for a tension solution (no friction compensation).
     pub fn command(&self, solution: &Solution<f32, M>) -> Result<Command<M>, Error> {
-        self.command_with(solution, &[0.0; M])
+        self.command_with(solution, &[0.0; M], None)
     }
 
-    /// Motor torques for a tension solution, each cable's tension lowered
-    /// by `friction` (N) before the conversion.
-    fn command_with(&self, solution: &Solution<f32, M>, friction: &[f32; M]) -> Result<Command<M>, Error> {
+    /// Motor torques for a tension solution plus `offsets` (N, the
+    /// joint-space feedback; the sum limited to `t_min..t_max`, each
+    /// limited cable flagged), each cable's tension lowered by `friction`
+    /// (N) before the conversion.
+    fn command_with(
+        &self,
+        solution: &Solution<f32, M>,
+        friction: &[f32; M],
+        offsets: Option<&[f32; M]>,
+    ) -> Result<Command<M>, Error> {
         let winch = self.robot.winch().ok_or(Error::UnsupportedShape)?;
+        let limits = self.robot.limits();
+        let mut tensions = [0.0; M];
+        let mut limited = Saturation::NONE;
+        for (i, t) in tensions.iter_mut().enumerate() {
+            *t = solution.tensions[i];
+            if let Some(offsets) = offsets {
+                let (lo, hi) = (limits.min()[i], limits.max()[i]);
+                let wanted = *t + offsets[i];
+                if !wanted.is_finite() {
+                    return Err(Error::NonFinite);
+                }
+                *t = wanted.clamp(lo, hi);
+                limited.0[i] = *t != wanted;
+            }
+        }
         let mut torques = [0.0; M];
         let mut saturated = Saturation::NONE;
         for (i, torque) in torques.iter_mut().enumerate() {
-            let m = winch.motor_torque(solution.tensions[i] - friction[i])?;
+            let m = winch.motor_torque(tensions[i] - friction[i])?;
             *torque = m.torque;
             saturated.0[i] = m.saturated;
         }
-        let mut tensions = [0.0; M];
-        tensions.copy_from_slice(solution.tensions.as_slice());
         Ok(Command {
             tensions,
             torques,
+            limited,
             saturated,
             robustness: solution.robustness,
             vertices: solution.diagnostics.vertices,
@@ -231,6 +338,111 @@ impl<const M: usize> Controller<M> {
         let mut ticks = PhaseTicks::default();
         let result = self.run(setpoint, extra, clock, &mut ticks);
         Cycle { result, ticks }
+    }
+
+    /// The setpoint's kinematics in one pass (the frame's sines and
+    /// cosines once): cable lengths, the wrench matrix and the required
+    /// wrench with gravity and the d'Alembert terms of the setpoint's
+    /// motion, as `Robot::cables`, `Robot::wrench_matrix_of` and
+    /// `Robot::wrench_problem` define them (conventions; the tests compare
+    /// them). Errors: [`Error::NonFinite`], [`Error::DegenerateCable`].
+    pub fn kinematics(&self, setpoint: &Setpoint) -> Result<SetpointKinematics<M>, Error> {
+        let (x, v, a) = (&setpoint.pose, &setpoint.velocity, &setpoint.acceleration);
+        if !x.iter().chain(v.iter()).chain(a.iter()).all(|q| q.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        let trig = Trig::of(x);
+        let rot = trig.rotation();
+        let p = Vector3::new(x[0], x[1], x[2]);
+        let mut lengths = SVector::<f32, M>::zeros();
+        let mut w = WrenchMatrix::<M>::zeros();
+        // The robot's size for the degenerate-cable floor (comparisons:
+        // `f32::max` is a library call on the M4F).
+        let bigger = |m: f32, v: &Vector3<f32>| {
+            let mut m = m;
+            for x in v.iter() {
+                let x = libm::fabsf(*x);
+                if x > m {
+                    m = x;
+                }
+            }
+            m
+        };
+        let mut size = bigger(0.0, &p);
+        let anchors = self.robot.anchors();
+        let attachments = self.robot.attachments();
+        let mut vectors = [Vector3::zeros(); M];
+        let mut rbs = [Vector3::zeros(); M];
+        for i in 0..M {
+            let rb = rot * attachments[i];
+            let l = anchors[i] - p - rb;
+            size = bigger(bigger(size, &anchors[i]), &rb);
+            lengths[i] = l.norm_squared().sqrt_native();
+            vectors[i] = l;
+            rbs[i] = rb;
+        }
+        let floor = tension_core::tolerance::degenerate_length(size);
+        for i in 0..M {
+            let length = lengths[i];
+            if !(length.is_finite() && length > floor) {
+                return Err(if length.is_finite() { Error::DegenerateCable } else { Error::NonFinite });
+            }
+            let u = vectors[i] / length;
+            let m = rbs[i].cross(&u);
+            for k in 0..3 {
+                w[(k, i)] = u[k];
+                w[(k + 3, i)] = m[k];
+            }
+        }
+        // Motion (`Motion::from_pose_derivatives` with the shared trig).
+        let (da, db, dc) = (v[3], v[4], v[5]);
+        let (sa, ca, sb, cb) = (trig.sa, trig.ca, trig.sb, trig.cb);
+        let j2 = Vector3::new(0.0, ca, sa);
+        let j3 = Vector3::new(sb, -sa * cb, ca * cb);
+        let dj2 = Vector3::new(0.0, -sa, ca) * da;
+        let dj3 = Vector3::new(db * cb, -da * ca * cb + db * sa * sb, -da * sa * cb - db * ca * sb);
+        let omega = Vector3::new(da, 0.0, 0.0) + j2 * db + j3 * dc;
+        let alpha = Vector3::new(a[3], 0.0, 0.0) + j2 * a[4] + j3 * a[5] + dj2 * db + dj3 * dc;
+        // External wrench (gravity and d'Alembert at the centre of mass).
+        let pf = self.robot.platform();
+        let rc = rot * pf.com;
+        let a_c = Vector3::new(a[0], a[1], a[2]) + alpha.cross(&rc) + omega.cross(&omega.cross(&rc));
+        let force = (pf.gravity - a_c) * pf.mass;
+        // I_w x = R (I (R^T x)): four products with a vector, not R I R^T.
+        let rt = rot.transpose();
+        let iw_alpha = rot * (pf.inertia * (rt * alpha));
+        let iw_omega = rot * (pf.inertia * (rt * omega));
+        let moment = rc.cross(&force) - (iw_alpha + omega.cross(&iw_omega));
+        let f = -Wrench::new(force.x, force.y, force.z, moment.x, moment.y, moment.z);
+        if !f.iter().all(|q| q.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        Ok(SetpointKinematics { lengths, w, f, trig, omega })
+    }
+
+    /// The rest of a cycle from [`Controller::kinematics`]: the tension
+    /// distribution of `f + feedback` (`feedback`: the wrench the cables
+    /// add, base frame, about the platform origin), plus `offsets` per
+    /// cable (N) if given, then the torques; `clock` times the solver and
+    /// the torques into `ticks`.
+    pub fn finish<C: TickCounter>(
+        &mut self,
+        setpoint: &Setpoint,
+        kinematics: &SetpointKinematics<M>,
+        feedback: &Wrench,
+        offsets: Option<&[f32; M]>,
+        clock: &C,
+        ticks: &mut PhaseTicks,
+    ) -> Result<Command<M>, Error> {
+        let t2 = clock.ticks();
+        let f = kinematics.f + feedback;
+        let solution = self.solve(&kinematics.w, &f);
+        let t3 = clock.ticks();
+        ticks.solver = t3.wrapping_sub(t2);
+        let friction = self.friction_forces(setpoint, &kinematics.w)?;
+        let command = self.command_with(&solution?, &friction, offsets);
+        ticks.torques = clock.since(t3);
+        command
     }
 
     fn run<C: TickCounter>(
@@ -249,7 +461,7 @@ impl<const M: usize> Controller<M> {
         let t3 = clock.ticks();
         ticks.solver = t3.wrapping_sub(t2);
         let friction = self.friction_forces(setpoint, &w)?;
-        let command = self.command_with(&solution?, &friction);
+        let command = self.command_with(&solution?, &friction, None);
         ticks.torques = clock.since(t3);
         command
     }

@@ -1,16 +1,28 @@
-//! The winch output: the trait the control loop writes torques and brake
-//! commands through ([`WinchDrives`]), and an adapter that drives winches
-//! from embedded-hal 1.0 PWM channels and pins ([`PwmDrives`]), for the
-//! common torque-mode servo amplifier with a PWM torque input, a direction
-//! input and a brake input.
+//! The winches: the trait the control loop writes torques and brake
+//! commands through and reads the motor encoders from ([`WinchDrives`]),
+//! and an adapter that drives winches from embedded-hal 1.0 PWM channels
+//! and pins ([`PwmDrives`]), for the common torque-mode servo amplifier
+//! with a PWM torque input, a direction input and a brake input (it has
+//! no encoder input: its [`WinchDrives::read`] is an error, which keeps
+//! the loop unhomed and so out of Enabled).
 
 use embedded_hal::digital::OutputPin;
 use embedded_hal::pwm::SetDutyCycle;
 
 use crate::CABLES;
 
-/// Where the torque commands go: one winch drive per cable plus the
-/// winches' holding brakes.
+/// One winch's motor encoder: its count (wrapping 32-bit) and speed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct WinchReading {
+    /// Motor encoder counts (wrapping 32-bit; differences are taken with
+    /// `wrapping_sub`).
+    pub counts: i32,
+    /// Motor speed, counts per second (as the drive measures it).
+    pub counts_per_second: i32,
+}
+
+/// Where the torque commands go and the encoder readings come from: one
+/// winch drive per cable plus the winches' holding brakes.
 pub trait WinchDrives {
     /// A drive's error (e.g. a bus write failed); the control loop faults on it.
     type Error: core::fmt::Debug;
@@ -21,6 +33,18 @@ pub trait WinchDrives {
 
     /// Engages (`true`) or releases (`false`) every winch's holding brake.
     fn set_brakes(&mut self, engaged: bool) -> Result<(), Self::Error>;
+
+    /// Reads every winch's motor encoder (count and speed) into
+    /// `readings`; an error when a drive cannot be read (the control loop
+    /// then faults if Enabled, and forgets its homing).
+    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), Self::Error>;
+
+    /// The drive (cable index) a read `error` names, if it names one:
+    /// reported in telemetry (`unreadable_drive`). `None` by default.
+    fn failed_drive(&self, error: &Self::Error) -> Option<usize> {
+        let _ = error;
+        None
+    }
 }
 
 /// Why [`PwmDrives`] failed.
@@ -32,6 +56,8 @@ pub enum PwmDriveError {
     Direction(usize),
     /// Setting the brake pin failed.
     Brake,
+    /// The PWM amplifiers have no encoder input: the winches cannot be read.
+    NoEncoder,
 }
 
 /// Winch drives behind embedded-hal 1.0 traits: per cable a PWM channel
@@ -85,5 +111,12 @@ impl<P: SetDutyCycle, D: OutputPin, B: OutputPin> WinchDrives for PwmDrives<P, D
 
     fn set_brakes(&mut self, engaged: bool) -> Result<(), PwmDriveError> {
         self.brake.set_state(engaged.into()).map_err(|_| PwmDriveError::Brake)
+    }
+
+    /// Always [`PwmDriveError::NoEncoder`]: a PWM torque input reports no
+    /// position. Pair the amplifiers with an encoder interface (a timer in
+    /// encoder mode, a CAN drive) to close the loop.
+    fn read(&mut self, _readings: &mut [WinchReading; CABLES]) -> Result<(), PwmDriveError> {
+        Err(PwmDriveError::NoEncoder)
     }
 }

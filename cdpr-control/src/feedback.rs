@@ -189,7 +189,25 @@ impl TaskPid {
             - measured.velocity;
         let ew = motion.angular_velocity - measured.angular_velocity;
         let rates = [ev.x, ev.y, ev.z, ew.x, ew.y, ew.z];
-        if !e.iter().chain(rates.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
+        let (_, r) = robot.frame(&measured.pose)?;
+        self.update_error(&e, &rates, &(r * robot.platform().com), dt, integrate)
+    }
+
+    /// The same from the errors themselves: `error = [e_p; e_r]` (m, rad),
+    /// `rates = [e_v; e_w]` (m/s, rad/s), `rc` the centre of mass `R c`
+    /// in base axes (m). The control loop's task-space scheme calls this
+    /// with the estimator's correction (`e = -delta`), which costs no
+    /// kinematics.
+    pub fn update_error(
+        &mut self,
+        error: &[f32; 6],
+        rates: &[f32; 6],
+        rc: &Vector3<f32>,
+        dt: f32,
+        integrate: bool,
+    ) -> Result<Wrench, Error> {
+        let e = error;
+        if !e.iter().chain(rates.iter()).chain(rc.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
             return Err(Error::NonFinite);
         }
         let g = &self.gains;
@@ -203,10 +221,196 @@ impl TaskPid {
         }
         let force = limit(Vector3::new(out[0], out[1], out[2]), self.limits.force_max);
         let moment = limit(Vector3::new(out[3], out[4], out[5]), self.limits.moment_max);
-        let (_, r) = robot.frame(&measured.pose)?;
-        let moment = moment + (r * robot.platform().com).cross(&force);
+        let moment = moment + rc.cross(&force);
         Ok(Wrench::from([force.x, force.y, force.z, moment.x, moment.y, moment.z]))
     }
+}
+
+/// The feedback scheme the control loop runs (`HostMessage::SelectFeedback`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Scheme {
+    /// Feed-forward only: the tension distribution of the setpoint's
+    /// wrench (wire 0, the default).
+    #[default]
+    FeedForward,
+    /// Task-space PID on the estimated pose ([`TaskPid`]): its wrench is
+    /// added to the one the tension distribution shares (wire 1).
+    TaskSpace,
+    /// Joint-space PD/PID on the cable lengths ([`JointPid`]): its tension
+    /// changes are added to the tension distribution's (wire 2).
+    JointSpace,
+}
+
+impl Scheme {
+    /// The wire number.
+    pub const fn wire_id(self) -> u8 {
+        match self {
+            Scheme::FeedForward => 0,
+            Scheme::TaskSpace => 1,
+            Scheme::JointSpace => 2,
+        }
+    }
+
+    /// The scheme of a wire number.
+    pub const fn from_wire_id(id: u8) -> Option<Self> {
+        match id {
+            0 => Some(Scheme::FeedForward),
+            1 => Some(Scheme::TaskSpace),
+            2 => Some(Scheme::JointSpace),
+            _ => None,
+        }
+    }
+
+    /// The name in logs.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Scheme::FeedForward => "feed-forward",
+            Scheme::TaskSpace => "task-space-pid",
+            Scheme::JointSpace => "joint-space-pid",
+        }
+    }
+}
+
+/// Gains of the joint-space PID, the same for every cable: the tension
+/// change of cable `i` is
+/// `dt_i = kp (L_i - L_d_i) + kd (dL_i - dL_d_i) + ki integral(L_i - L_d_i)`
+/// (a cable longer than desired pulls harder).
+///
+/// [`JointGains::triple_pole`] chooses them so that the platform's
+/// translation in its *softest* direction has the task-space PID's triple
+/// pole at `-omega`: with the same gain on every cable the task-space
+/// stiffness is `kp W W^T` (from `dL = -W^T delta` and `f = W dt`), so
+/// along base axis `k` it is `kp s_k`, `s_k = sum_i W_ki^2` (the sum of
+/// the squared direction components); with `s = min(s_x, s_y, s_z)` at a
+/// reference pose, `kp = 3 m omega^2 / s`, `kd = 3 m omega / s`,
+/// `ki = m omega^3 / s`. Stiffer directions (suspended-8: vertical,
+/// `s_z / s_x` about 3) are faster and better damped relative to their
+/// stiffness. The control loop's default takes the reference pose at the
+/// centre of the setpoint range's box, unrotated: on suspended-8
+/// `(0, 0, 1.75)`, where `s_x, s_y, s_z = 3.60, 2.04, 2.35` (y is the
+/// softest: the anchors are 4 m apart in x, 3 m in y), so with
+/// `omega = 2 pi 5 Hz`: `kp` = 9 195 N/m, `kd` = 293 N s/m, `ki` =
+/// 96 300 N/(m s) (`tests/closed_loop.rs` checks these). A 1 mm length
+/// error is 9.2 N, one encoder count (7.7 um) 0.07 N; at the other
+/// translations the poles are faster (`sqrt(s_k / s)` times) and less
+/// damped relative to their speed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointGains {
+    /// Proportional, N/m.
+    pub kp: f32,
+    /// Derivative, N s/m.
+    pub kd: f32,
+    /// Integral, N/(m s).
+    pub ki: f32,
+    /// Largest `|ki integral(e)|` per cable, N (anti-windup).
+    pub integral_max: f32,
+}
+
+impl JointGains {
+    /// The triple pole at `-omega` (rad/s) in the softest translation at
+    /// `pose`, for the robot's platform mass; `integral_max` N per cable.
+    pub fn triple_pole(
+        robot: &ControlRobot,
+        pose: &Pose6,
+        omega: f32,
+        integral_max: f32,
+    ) -> Result<Self, Error> {
+        let w = robot.wrench_matrix(pose)?;
+        let mut s = f32::INFINITY;
+        for k in 0..3 {
+            let sk: f32 = (0..CABLES).map(|i| w[(k, i)] * w[(k, i)]).sum();
+            s = s.min(sk);
+        }
+        let m = robot.platform().mass;
+        if !(s.is_finite() && s > 0.0 && omega.is_finite() && omega > 0.0) {
+            return Err(Error::Singular);
+        }
+        Ok(Self {
+            kp: 3.0 * m * omega * omega / s,
+            kd: 3.0 * m * omega / s,
+            ki: m * omega * omega * omega / s,
+            integral_max,
+        })
+    }
+}
+
+/// The joint-space PID with its integral state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointPid {
+    gains: JointGains,
+    integral: [f32; CABLES],
+}
+
+impl JointPid {
+    /// Zero integral.
+    pub const fn new(gains: JointGains) -> Self {
+        Self { gains, integral: [0.0; CABLES] }
+    }
+
+    /// The gains.
+    pub fn gains(&self) -> &JointGains {
+        &self.gains
+    }
+
+    /// The integral terms, N.
+    pub fn integral(&self) -> &[f32; CABLES] {
+        &self.integral
+    }
+
+    /// Forgets the integral.
+    pub fn reset(&mut self) {
+        self.integral = [0.0; CABLES];
+    }
+
+    /// Per cable, the tension change (N) for measured `lengths` and
+    /// `rates` against the desired `lengths_d`, `rates_d` (m, m/s; positive
+    /// rates pay out); with `integrate` the integral advances by `dt`.
+    pub fn update(
+        &mut self,
+        lengths: &[f32; CABLES],
+        rates: &[f32; CABLES],
+        lengths_d: &[f32; CABLES],
+        rates_d: &[f32; CABLES],
+        dt: f32,
+        integrate: bool,
+    ) -> Result<[f32; CABLES], Error> {
+        let g = &self.gains;
+        let mut out = [0.0; CABLES];
+        for i in 0..CABLES {
+            let e = lengths[i] - lengths_d[i];
+            let de = rates[i] - rates_d[i];
+            if !(e.is_finite() && de.is_finite()) {
+                return Err(Error::NonFinite);
+            }
+            if integrate {
+                let max = g.integral_max;
+                self.integral[i] = (self.integral[i] + g.ki * e * dt).clamp(-max, max);
+            }
+            out[i] = g.kp * e + g.kd * de + self.integral[i];
+        }
+        Ok(out)
+    }
+}
+
+/// The desired cable length rates `dL_d = -W^T [v; omega]` (m/s, positive
+/// paying out) of a setpoint whose wrench matrix is `w`, with its pose
+/// rate `velocity` (the first three are `v`) and angular velocity `omega`.
+pub fn length_rates(
+    w: &crate::controller::WrenchMatrix,
+    velocity: &Pose6,
+    omega: &Vector3<f32>,
+) -> [f32; CABLES] {
+    let twist = [velocity[0], velocity[1], velocity[2], omega.x, omega.y, omega.z];
+    let mut out = [0.0; CABLES];
+    for (i, o) in out.iter_mut().enumerate() {
+        let col = w.column(i);
+        let mut r = 0.0;
+        for k in 0..6 {
+            r += col[k] * twist[k];
+        }
+        *o = -r;
+    }
+    out
 }
 
 /// The setpoint `dt` seconds after it was meant for, with constant

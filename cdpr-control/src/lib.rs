@@ -9,10 +9,14 @@
 //! * [`link`]: what the serial protocol's frames mean (sequence order,
 //!   value ranges) and the counters of rejected frames;
 //! * [`control_loop`]: the three together, one call per millisecond;
-//! * [`feedback`]: the task-space PID around the trajectory (its wrench is
-//!   `step`'s `extra`) and the cable-length check behind
-//!   [`ControlLoop::check_lengths`];
-//! * [`drives`]: the winch output trait, with an embedded-hal 1.0 PWM adapter;
+//! * [`feedback`]: the two feedback schemes (task-space PID on the
+//!   estimated pose, joint-space PID on the cable lengths) and the
+//!   cable-length check behind [`ControlLoop::check_lengths`];
+//! * [`drives`]: the winch trait (torques and brakes out, encoder
+//!   readings in), with an embedded-hal 1.0 PWM adapter;
+//! * [`encoder`]: encoder counts to cable lengths, and the homing offsets;
+//! * [`estimator`]: the pose and twist estimate from the cable lengths (a
+//!   Gauss-Newton step of the forward kinematics each cycle);
 //! * [`setpoint`]: the setpoint the controller acts on;
 //! * [`robot`]: the robot shape the loop runs (6 DOF, 8 cables; the robot
 //!   itself comes from a robot file);
@@ -28,6 +32,8 @@
 pub mod control_loop;
 pub mod controller;
 pub mod drives;
+pub mod encoder;
+pub mod estimator;
 pub mod feedback;
 pub mod link;
 pub mod robot;
@@ -37,7 +43,7 @@ pub mod supervisor;
 
 pub use cdpr_protocol as protocol;
 pub use control_loop::{ControlLoop, MethodSet, StepReport, RECEIVE_BUDGET};
-pub use drives::WinchDrives;
+pub use drives::{WinchDrives, WinchReading};
 pub use robot::{ControlRobot, CABLES, DOF};
 pub use setpoint::Setpoint;
 

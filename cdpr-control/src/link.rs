@@ -81,6 +81,16 @@ impl SetpointRange {
         }
     }
 
+    /// Whether a pose is finite with its position in the box and its
+    /// angles within `angle_max`.
+    pub fn contains_pose(&self, pose: &[f32; 6]) -> bool {
+        let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
+        (0..3).all(|i| {
+            within(pose[i], self.position_min[i], self.position_max[i])
+                && within(pose[i + 3], -self.angle_max, self.angle_max)
+        })
+    }
+
     /// Whether every value is finite and within range.
     pub fn contains(&self, s: &cdpr_protocol::Setpoint) -> bool {
         let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
@@ -198,6 +208,11 @@ pub enum Event {
     TelemetryPeriod(u16),
     /// Switch to this method (already checked to exist).
     SelectMethod(tension_core::Method),
+    /// "The platform is at this pose now" (finite, within the range's
+    /// position box and angle limit).
+    Home(crate::setpoint::Pose6),
+    /// Switch to this feedback scheme (already checked to exist).
+    SelectFeedback(crate::feedback::Scheme),
 }
 
 /// The receiving side of the serial link.
@@ -275,6 +290,20 @@ impl Link {
             HostMessage::TelemetryPeriod(p) => Event::TelemetryPeriod(p),
             HostMessage::SelectMethod(id) => match tension_core::Method::from_wire_id(id) {
                 Some(method) => Event::SelectMethod(method),
+                None => {
+                    counters.reject(Rejection::Range);
+                    return None;
+                }
+            },
+            HostMessage::Home(pose) => {
+                if !self.range.contains_pose(&pose) {
+                    counters.reject(Rejection::Range);
+                    return None;
+                }
+                Event::Home(crate::setpoint::Pose6::from(pose))
+            }
+            HostMessage::SelectFeedback(id) => match crate::feedback::Scheme::from_wire_id(id) {
+                Some(scheme) => Event::SelectFeedback(scheme),
                 None => {
                     counters.reject(Rejection::Range);
                     return None;

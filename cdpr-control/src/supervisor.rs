@@ -26,7 +26,8 @@
 //! * **Enabled**: brakes released; the torques of the newest setpoint.
 //! * **Holding**: the newest setpoint is infeasible, bad (non-finite, out of
 //!   range, solver failure) or stale (no setpoint for more than
-//!   `stale_cycles`): the last feasible torques are held. A feasible fresh
+//!   `stale_cycles`), or the pose estimator failed (`estimator`): the last
+//!   feasible torques are held. A feasible fresh
 //!   setpoint returns to Enabled; after `hold_cycles` of holding, Fault.
 //! * **Fault**: brakes engaged, torques ramp to zero like Disabled; the
 //!   state is latched until `ClearFault` (granted once the ramp has
@@ -36,7 +37,9 @@
 //!   so Disabled is always visible on the way back. Also entered from Enabled or
 //!   Holding when `overrun_limit` cycles in a row miss their deadline (a
 //!   loop that cannot keep up; one late cycle only holds the previous
-//!   torques a millisecond longer), or when the drives report an error.
+//!   torques a millisecond longer), when the drives report an error
+//!   (`drive-error`), when an encoder cannot be read (`encoder`) or when a
+//!   cable length departs from the setpoint's (`tracking`).
 //!
 //! Time is counted in control cycles (1 ms each on the board).
 
@@ -80,6 +83,11 @@ pub enum SetpointStatus {
     Bad,
     /// No setpoint, or the newest is older than `stale_cycles`.
     Stale,
+    /// The setpoint solved, but the pose estimator failed this cycle (the
+    /// forward kinematics of the encoder lengths, or its residual): the
+    /// closed loop cannot run (Holding with `Reason::Estimator`; Enable
+    /// refused).
+    Unobservable,
 }
 
 /// Commands waiting for the next cycle.
@@ -283,6 +291,7 @@ impl Supervisor {
                     SetpointStatus::Infeasible => Some(Reason::Infeasible),
                     SetpointStatus::Bad => Some(Reason::BadSetpoint),
                     SetpointStatus::Stale => Some(Reason::Stale),
+                    SetpointStatus::Unobservable => Some(Reason::Estimator),
                 };
                 match problem {
                     None => self.output = self.last_feasible,

@@ -3,15 +3,14 @@
 
 mod common;
 
-use cdpr_control::controller::Wrench;
 use cdpr_control::feedback::{extrapolate, length_errors, pose_error};
 use cdpr_control::protocol::{HostMessage, Reason, Setpoint, State};
 use cdpr_control::setpoint::Pose6;
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::{ControlLoop, NoClock, CABLES};
+use cdpr_control::{ControlLoop, NoClock, WinchReading, CABLES};
 use tension_core::Method;
 
-struct Null;
+struct Null([WinchReading; CABLES]);
 
 impl cdpr_control::WinchDrives for Null {
     type Error = ();
@@ -19,6 +18,10 @@ impl cdpr_control::WinchDrives for Null {
         Ok(())
     }
     fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
+        Ok(())
+    }
+    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), ()> {
+        *readings = self.0;
         Ok(())
     }
 }
@@ -63,21 +66,23 @@ fn lengths_off_the_setpoint_fault_only_when_enabled() {
     let mut control =
         ControlLoop::new(robot, Method::Barycenter, common::setpoint_range(), SafetyLimits::DEFAULT).unwrap();
     let setpoint = |seq| Setpoint { seq, pose: POSE, velocity: [0.0; 6], acceleration: [0.0; 6] };
+    let mut null = Null(common::readings_at(&control, POSE));
+    common::home(&mut control, &mut null, POSE);
     control.receive(HostMessage::Setpoint(setpoint(1)));
-    control.step(&NoClock, &mut Null, &Wrench::zeros(), false);
+    control.step(&NoClock, &mut null, false);
     let mut off = lengths;
     off[3] += 0.05;
     // Disabled: no check.
     assert_eq!(control.check_lengths(&off, 0.02), None);
     control.receive(HostMessage::Setpoint(setpoint(2)));
     control.receive(HostMessage::Enable);
-    assert_eq!(control.step(&NoClock, &mut Null, &Wrench::zeros(), false).state, State::Enabled);
+    assert_eq!(control.step(&NoClock, &mut null, false).state, State::Enabled);
     // Within the limit: nothing; beyond it: Fault, tracking, from this cycle on.
     off[3] = lengths[3] + 0.015;
     assert_eq!(control.check_lengths(&off, 0.02), None);
     off[3] = lengths[3] + 0.05;
     assert_eq!(control.check_lengths(&off, 0.02), Some(3));
-    let r = control.step(&NoClock, &mut Null, &Wrench::zeros(), false);
+    let r = control.step(&NoClock, &mut null, false);
     assert_eq!((r.state, r.reason, r.brakes), (State::Fault, Reason::Tracking, true));
     assert_eq!(control.counters().faults, 1);
     // Latched: a second check does not count another fault.

@@ -5,16 +5,18 @@
 
 mod common;
 
-use cdpr_control::controller::Wrench;
 use cdpr_control::drives::WinchDrives;
 use cdpr_control::protocol::{encode, HostMessage, Reason, Rejection, Setpoint, State, MAX_FRAME};
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::{ControlLoop, MethodSet, NoClock, StepReport, CABLES, RECEIVE_BUDGET};
+use cdpr_control::{ControlLoop, MethodSet, NoClock, StepReport, WinchReading, CABLES, RECEIVE_BUDGET};
 use tension_core::Method;
 
 const LIMITS: SafetyLimits = SafetyLimits::DEFAULT;
 
-struct Nothing;
+/// Drives that take any command; their encoders read an ideal plant.
+struct Nothing {
+    readings: [WinchReading; CABLES],
+}
 
 impl WinchDrives for Nothing {
     type Error = ();
@@ -22,6 +24,10 @@ impl WinchDrives for Nothing {
         Ok(())
     }
     fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
+        Ok(())
+    }
+    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), ()> {
+        *readings = self.readings;
         Ok(())
     }
 }
@@ -48,14 +54,18 @@ fn bytes(message: &HostMessage) -> Vec<u8> {
 
 struct Rig {
     control: ControlLoop,
+    drives: Nothing,
 }
 
 impl Rig {
     fn new() -> Self {
-        let control =
+        let mut control =
             ControlLoop::new(common::suspended8(), Method::Barycenter, common::setpoint_range(), LIMITS)
                 .unwrap();
-        Self { control }
+        control.set_tracking_limit(None);
+        let mut drives = Nothing { readings: common::readings_at(&control, low(0).pose) };
+        common::home(&mut control, &mut drives, low(0).pose);
+        Self { control, drives }
     }
 
     fn send(&mut self, message: HostMessage) {
@@ -69,7 +79,8 @@ impl Rig {
     }
 
     fn step(&mut self) -> StepReport {
-        self.control.step(&NoClock, &mut Nothing, &Wrench::zeros(), false)
+        common::follow(&self.control, &mut self.drives.readings);
+        self.control.step(&NoClock, &mut self.drives, false)
     }
 
     /// Setpoint `seq`, Enable, one step: Enabled.
@@ -178,7 +189,7 @@ fn disable_restarts_the_numbering_at_once_and_clear_fault_path_too() {
     // Fault (overruns), then a host that starts again from 1: accepted in
     // Fault and after ClearFault.
     for _ in 0..LIMITS.overrun_limit {
-        rig.control.step(&NoClock, &mut Nothing, &Wrench::zeros(), true);
+        rig.control.step(&NoClock, &mut rig.drives, true);
     }
     assert_eq!(rig.control.supervisor().state(), State::Fault);
     let mut seq = 0;
@@ -398,7 +409,7 @@ fn bursts_of_any_two_commands_take_one_edge_of_the_diagram() {
             }
             State::Fault => {
                 for _ in 0..LIMITS.overrun_limit {
-                    rig.control.step(&NoClock, &mut Nothing, &Wrench::zeros(), true);
+                    rig.control.step(&NoClock, &mut rig.drives, true);
                 }
                 rig.wait_ramp(&mut seq);
             }
@@ -438,7 +449,7 @@ fn bursts_of_any_two_commands_take_one_edge_of_the_diagram() {
 fn clear_fault_and_enable_in_one_burst_show_disabled_and_restart_the_numbering() {
     let mut rig = Rig::enabled_at(1000);
     for _ in 0..LIMITS.overrun_limit {
-        rig.control.step(&NoClock, &mut Nothing, &Wrench::zeros(), true);
+        rig.control.step(&NoClock, &mut rig.drives, true);
     }
     let mut seq = 1000;
     rig.wait_ramp(&mut seq);

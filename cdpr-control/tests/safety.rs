@@ -5,12 +5,11 @@
 
 mod common;
 
-use cdpr_control::controller::Wrench;
 use cdpr_control::drives::WinchDrives;
 use cdpr_control::link::SetpointRange;
 use cdpr_control::protocol::{encode, HostMessage, Reason, Setpoint, State, MAX_FRAME};
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::{ControlLoop, NoClock, StepReport, CABLES};
+use cdpr_control::{ControlLoop, NoClock, StepReport, WinchReading, CABLES};
 use proptest::prelude::*;
 use tension_core::Method;
 
@@ -22,6 +21,7 @@ struct Recorder {
     torques: Vec<[f32; CABLES]>,
     brakes: Vec<bool>,
     fail: bool,
+    readings: [WinchReading; CABLES],
 }
 
 impl WinchDrives for Recorder {
@@ -41,6 +41,10 @@ impl WinchDrives for Recorder {
         } else {
             Ok(())
         }
+    }
+    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), ()> {
+        *readings = self.readings;
+        Ok(())
     }
 }
 
@@ -73,7 +77,12 @@ impl Rig {
         // These tests jump to infeasible poses on purpose; the jump check
         // has its own tests (`link.rs`).
         control.set_jump_limits(None);
-        Self { control, drives: Recorder::default() }
+        // The ideal plant follows even infeasible setpoints: no length check.
+        control.set_tracking_limit(None);
+        let mut drives =
+            Recorder { readings: common::readings_at(&control, low(0).pose), ..Default::default() };
+        common::home(&mut control, &mut drives, low(0).pose);
+        Self { control, drives }
     }
 
     fn send(&mut self, message: HostMessage) {
@@ -93,7 +102,8 @@ impl Rig {
     }
 
     fn step_overrun(&mut self, overrun: bool) -> StepReport {
-        let report = self.control.step(&NoClock, &mut self.drives, &Wrench::zeros(), overrun);
+        common::follow(&self.control, &mut self.drives.readings);
+        let report = self.control.step(&NoClock, &mut self.drives, overrun);
         // What reached the drives is what the report says.
         assert_eq!(self.drives.torques.last(), Some(&report.torques));
         assert_eq!(self.drives.brakes.last(), Some(&report.brakes));
@@ -302,7 +312,7 @@ fn out_of_order_corrupt_and_truncated_frames_are_counted_and_ignored() {
     let c = rig.control.counters();
     assert_eq!(c.rejected_order, 2);
     assert_eq!(c.rejected_crc + c.rejected_framing + c.rejected_decode, 3, "{c:?}");
-    assert_eq!(c.accepted, 3); // setpoint 1, Enable, setpoint 10
+    assert_eq!(c.accepted, 4); // Home, setpoint 1, Enable, setpoint 10
 }
 
 #[test]
@@ -386,7 +396,7 @@ fn clear_fault_is_refused_during_the_ramp() {
 fn a_drive_error_faults() {
     let (mut rig, _) = Rig::enabled();
     rig.drives.fail = true;
-    let r = rig.control.step(&NoClock, &mut rig.drives, &Wrench::zeros(), false);
+    let r = rig.control.step(&NoClock, &mut rig.drives, false);
     assert_eq!((r.state, r.reason), (State::Fault, Reason::Output));
     assert!(r.brakes);
     assert_eq!(rig.drives.brakes.last(), Some(&true));
@@ -397,7 +407,8 @@ fn telemetry_period() {
     let (mut rig, _) = Rig::enabled();
     rig.send(HostMessage::TelemetryPeriod(3));
     let due: Vec<bool> = (0..9).map(|_| rig.step().telemetry.is_some()).collect();
-    let cycles: Vec<u32> = (1..10).collect();
+    // Cycle 0 homed the rig, cycle 1 enabled it.
+    let cycles: Vec<u32> = (2..11).collect();
     assert_eq!(due, cycles.iter().map(|c| c % 3 == 0).collect::<Vec<_>>());
     rig.send(HostMessage::TelemetryPeriod(0));
     assert!((0..10).all(|_| rig.step().telemetry.is_none()));

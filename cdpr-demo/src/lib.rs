@@ -8,6 +8,8 @@
 //!   worst cases against the [`BUDGET`];
 //! * [`BUDGET`], [`EXPECTED_STATES`], the [`exit`] codes: what the demo's
 //!   verdict is made of;
+//! * [`winches`]: the stand-in for the winch encoders on a board without
+//!   winches (QEMU): cables that follow the setpoint with a lag;
 //! * [`qemu`]: the emulator's machine and its `-icount` setting, which the
 //!   firmware's tick conversion assumes.
 //!
@@ -20,6 +22,7 @@
 pub mod methods;
 pub mod report;
 pub mod trajectory;
+pub mod winches;
 
 use cdpr_control::protocol::State;
 

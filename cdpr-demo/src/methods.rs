@@ -29,7 +29,10 @@ pub struct MethodCost {
 /// The control step without the solver, worst case: the setpoint's checks,
 /// kinematics, torques, state machine and drives (the phases' maxima in
 /// `cargo xtask run`'s step breakdown: 1 096 + 2 623 + 336 + 763 = 4 818),
-/// rounded up.
+/// rounded up. Not yet updated for the closed loop of issue 13 (encoders,
+/// estimator, feedback): its maxima now sum to about 7 030 (691 + 145 +
+/// 1 910 + 1 969 + 576 + 559 + 1 179), with which the barycenter's stated
+/// 15 000 would not fit the budget (BENCHMARKS.md: open).
 pub const STEP_REST: u32 = 5_000;
 
 /// Every method's stated worst solve, in `Method::ALL` order.

@@ -99,6 +99,12 @@ pub struct Report {
     /// The worst receive work of one cycle under a byte flood (a cycle's
     /// `cdpr_control::RECEIVE_BUDGET` of bytes), in the report's unit.
     pub receive_worst: u32,
+    /// Cost of the pose estimator (the forward kinematics' Gauss-Newton
+    /// step) in the cycles it ran.
+    pub estimator: Spread,
+    /// Cost of `tension_core`'s forward kinematics, warm from the previous
+    /// answer, replayed over the encoders' stand-in along the script.
+    pub forward: Spread,
 }
 
 impl Report {
@@ -183,6 +189,8 @@ mod tests {
             exit_code: u32::MAX as i32,
             method_worst: [u32::MAX; 10],
             receive_worst: u32::MAX,
+            estimator: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
+            forward: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
         }
     }
 

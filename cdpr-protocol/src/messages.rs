@@ -50,6 +50,21 @@ pub enum HostMessage {
     /// Accepted in Disabled only, and only for a method the receiver offers
     /// (the firmware: those whose worst case fits its step budget).
     SelectMethod(u8),
+    /// "The platform is at this pose now" (tag 6): `[x, y, z, rx, ry, rz]`,
+    /// m and rad. The receiver reads its winch encoders in the next cycle
+    /// and sets each cable's offset so that the encoder lengths are the
+    /// pose's inverse kinematics. Accepted in Disabled only (else
+    /// [`Rejection::State`]); a non-finite pose or one outside the
+    /// setpoint range is [`Rejection::Range`]; drives that cannot be read
+    /// then are [`Rejection::Homing`]. `Enable` is refused until homed.
+    Home([f32; DOF]),
+    /// The feedback scheme from now on (tag 7): 0 feed-forward only (the
+    /// default), 1 task-space PID on the estimated pose (its wrench added
+    /// to the tension distribution's), 2 joint-space PD/PID on the cable
+    /// lengths (added to the tension distribution's tensions). Accepted in
+    /// Disabled only ([`Rejection::State`]); another number is
+    /// [`Rejection::Range`].
+    SelectFeedback(u8),
 }
 
 /// The safety state machine's states (see the firmware README's diagram).
@@ -92,6 +107,15 @@ pub enum Reason {
     /// setpoint asks for by more than the tracking limit: a broken or
     /// slipping cable, or a winch that cannot deliver its torque (tag 7).
     Tracking,
+    /// The pose estimator failed: the forward kinematics of the encoder
+    /// lengths did not converge, or its residual (how far the lengths are
+    /// from those of any pose) exceeded the limit (tag 8). A hold: the
+    /// last feasible torques are held, feedback off, and a fault follows
+    /// (`HoldTimeout`, `hold_reason` = this) if it lasts.
+    Estimator,
+    /// A winch drive's encoder could not be read (tag 9): a fault while
+    /// Enabled or Holding; `Telemetry::unreadable_drive` names the drive.
+    Encoder,
 }
 
 impl State {
@@ -118,6 +142,8 @@ impl Reason {
             Reason::Overruns => "overruns",
             Reason::Output => "drive-error",
             Reason::Tracking => "tracking",
+            Reason::Estimator => "estimator",
+            Reason::Encoder => "encoder",
         }
     }
 }
@@ -150,6 +176,10 @@ pub enum Rejection {
     /// `SelectMethod` of a method whose worst case does not fit the board's
     /// budget (tag 8, `rejected_method`).
     MethodOverBudget,
+    /// `Enable` before the board is homed, or a `Home` it could not carry
+    /// out because a drive could not be read (tag 9; counted in
+    /// `rejected_state`, which keeps the counters' layout).
+    Homing,
 }
 
 impl Rejection {
@@ -165,6 +195,7 @@ impl Rejection {
             Rejection::Jump => "jump",
             Rejection::State => "state",
             Rejection::MethodOverBudget => "method-over-budget",
+            Rejection::Homing => "homing",
         }
     }
 }
@@ -185,7 +216,8 @@ pub struct Counters {
     pub rejected_order: u32,
     /// Setpoints with a non-finite or out-of-range value.
     pub rejected_range: u32,
-    /// Commands not allowed in the current state (e.g. `Enable` while in fault).
+    /// Commands not allowed in the current state (e.g. `Enable` while in
+    /// fault, or before homing: `last_rejection` tells which).
     pub rejected_state: u32,
     /// Control cycles that missed their deadline.
     pub overruns: u32,
@@ -218,7 +250,7 @@ impl Counters {
             Rejection::Order => &mut self.rejected_order,
             Rejection::Range => &mut self.rejected_range,
             Rejection::Jump => &mut self.rejected_jump,
-            Rejection::State => &mut self.rejected_state,
+            Rejection::State | Rejection::Homing => &mut self.rejected_state,
             Rejection::MethodOverBudget => &mut self.rejected_method,
         };
         *counter = counter.wrapping_add(1);
@@ -255,6 +287,25 @@ pub struct Telemetry {
     pub counters: Counters,
     /// The method in use (index as in [`HostMessage::SelectMethod`]).
     pub method: u8,
+    /// The pose estimated from the winch encoders this cycle
+    /// (`[x, y, z, rx, ry, rz]`, m and rad; the last good estimate when
+    /// this cycle's failed, zeros before homing).
+    pub estimate: [f32; DOF],
+    /// The estimator's worst cable-length residual this cycle, m: how far
+    /// the encoder lengths are from those of the estimated pose (NaN when
+    /// there is no estimate: not homed, a drive unreadable, the forward
+    /// kinematics failed).
+    pub residual: f32,
+    /// Whether the board is homed (`HostMessage::Home` carried out).
+    pub homed: bool,
+    /// The feedback scheme in use (as in [`HostMessage::SelectFeedback`]).
+    pub feedback: u8,
+    /// The drive whose encoder could not be read this cycle, if any.
+    pub unreadable_drive: Option<u8>,
+    /// Cables whose commanded tension the joint-space feedback would have
+    /// taken outside `t_min..t_max`, one bit per cable (bit `i`: cable
+    /// `i`); those tensions were limited to the bound.
+    pub tension_limited: u8,
 }
 
 /// Firmware to host.

@@ -5,7 +5,7 @@
 
 use cdpr_protocol::{
     crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Reason, Rejection,
-    Setpoint, State, Telemetry, CABLES, MAX_FRAME,
+    Setpoint, State, Telemetry, CABLES, MAX_FRAME, MAX_PAYLOAD,
 };
 use proptest::prelude::*;
 
@@ -75,12 +75,30 @@ fn largest_message_fits() {
             rejected_jump: u32::MAX,
             rejected_method: u32::MAX,
             dropped_bytes: u32::MAX,
-            last_rejection: Rejection::MethodOverBudget,
+            last_rejection: Rejection::Homing,
         },
         method: u8::MAX,
+        estimate: [f32::MAX; 6],
+        residual: f32::NAN,
+        homed: true,
+        feedback: u8::MAX,
+        unreadable_drive: Some(u8::MAX),
+        tension_limited: u8::MAX,
     };
     let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
     assert!(frame.len() <= MAX_FRAME, "{} bytes", frame.len());
+    // The payload's size at most (stated in the protocol's docs): the
+    // frame less the COBS code byte, the CRC and the delimiter.
+    let mut buf = [0u8; MAX_PAYLOAD];
+    let payload = postcard::to_slice(&DeviceMessage::Telemetry(telemetry), &mut buf).unwrap();
+    assert_eq!(payload.len(), 185);
+    assert!(payload.len() <= MAX_PAYLOAD);
+    let decoded = feed::<DeviceMessage>(&frame);
+    let Some(Ok(DeviceMessage::Telemetry(back))) = decoded.first().cloned() else { panic!("{decoded:?}") };
+    assert!(back.residual.is_nan());
+    assert_eq!(back.unreadable_drive, Some(u8::MAX));
+    let telemetry = Telemetry { residual: 0.0, unreadable_drive: None, ..telemetry };
+    let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
     assert_eq!(feed::<DeviceMessage>(&frame), vec![Ok(DeviceMessage::Telemetry(telemetry))]);
 }
 
@@ -158,6 +176,8 @@ fn any_host_message() -> impl Strategy<Value = HostMessage> {
         Just(HostMessage::ClearFault),
         any::<u16>().prop_map(HostMessage::TelemetryPeriod),
         any::<u8>().prop_map(HostMessage::SelectMethod),
+        prop::array::uniform6(any_f32()).prop_map(HostMessage::Home),
+        any::<u8>().prop_map(HostMessage::SelectFeedback),
     ]
 }
 
@@ -175,6 +195,7 @@ fn same_bits(a: &HostMessage, b: &HostMessage) -> bool {
             };
             bits(x) == bits(y)
         }
+        (HostMessage::Home(x), HostMessage::Home(y)) => x.map(f32::to_bits) == y.map(f32::to_bits),
         _ => a == b,
     }
 }

@@ -8,11 +8,20 @@
 //!   then one closed loop of 4000 cycles that crosses the workspace of
 //!   suspended-8 and leaves it once (near the top). They enter the loop as
 //!   protocol messages, through the same checks as received frames.
-//! * A scripted operator: `Enable` at the loop's start; after a fault, once the
-//!   torque ramp has finished and the setpoint is feasible again,
-//!   `ClearFault` and `Enable`. So the run shows Enabled -> Holding (the
-//!   pose leaves the workspace) -> Fault (hold timeout, torques ramp down,
-//!   brakes on) -> Disabled -> Enabled.
+//! * The winches' encoders are a stand-in ([`cdpr_demo::winches`]: each
+//!   cable follows the tracked setpoint's inverse kinematics with a 5 ms
+//!   lag, read as counts), advanced after each measured step; the loop
+//!   reads them, estimates the pose and runs its feedback inside the
+//!   step, at their real cost.
+//! * A scripted operator: `Home` at the centre and `SelectFeedback` of the
+//!   task-space PID at cycle 0; `Enable` at the loop's start (repeated
+//!   until granted: the stand-in needs a few cycles to reach the loop's
+//!   first pose after the jumps); after a fault, once the torque ramp has
+//!   finished and the setpoint is feasible again, `ClearFault`, the
+//!   joint-space PID and `Enable`. So the run shows Enabled -> Holding
+//!   (the pose leaves the workspace) -> Fault (hold timeout, torques ramp
+//!   down, brakes on) -> Disabled -> Enabled, with each feedback scheme in
+//!   one of the Enabled stretches.
 //! * TIM2 times every step from the setpoint to the drive writes.
 //!
 //! At the end it prints the statistics, times the barycenter's phases and
@@ -27,6 +36,7 @@
 //! [`cdpr_demo::INJECT_AT`] ([`Inject`]).
 
 use cdpr_control::controller::{Controller, Wrench};
+use cdpr_control::feedback::Scheme;
 use cdpr_control::protocol::{HostMessage, State};
 use cdpr_control::stats::{Running, Samples, Summary};
 use cdpr_control::{ControlLoop, Setpoint, StepReport, TickCounter, CABLES};
@@ -86,6 +96,9 @@ pub fn log_record(record: &Record) {
 /// Counts per status of a run's cycles.
 #[derive(Default)]
 struct Outcomes {
+    estimated: u32,
+    unestimated: u32,
+    residual_um: u32,
     ok: u32,
     infeasible: u32,
     no_convergence: u32,
@@ -113,6 +126,9 @@ struct Breakdown {
     kinematics: Running,
     solver: Running,
     torques: Running,
+    read: Running,
+    estimator: Running,
+    feedback: Running,
     supervisor_and_drives: Running,
 }
 
@@ -140,6 +156,8 @@ impl Transitions {
 /// setpoint is feasible again.
 struct Operator {
     enable: bool,
+    /// A scheme to select at the next Disabled cycle.
+    scheme: Option<Scheme>,
     fault_since: Option<u32>,
     ramp_cycles: u32,
 }
@@ -154,7 +172,15 @@ impl Operator {
         match report.state {
             State::Fault if ok && self.fault_since.is_some_and(|f| k >= f + self.ramp_cycles) => {
                 control.receive(HostMessage::ClearFault);
+                // The second Enabled stretch runs the joint-space scheme
+                // (granted in Disabled only: after this ClearFault's cycle).
+                self.scheme = Some(Scheme::JointSpace);
                 self.fault_since = None;
+            }
+            State::Disabled if self.scheme.is_some() => {
+                if let Some(scheme) = self.scheme.take() {
+                    control.receive(HostMessage::SelectFeedback(scheme.wire_id()));
+                }
             }
             State::Disabled if ok && k + 1 >= trajectory::PRELUDE_CYCLES => self.enable = true,
             _ => {}
@@ -166,6 +192,8 @@ impl Operator {
 struct LoopResults<'a> {
     steps: Samples<'a>,
     solver: Samples<'a>,
+    /// The estimator's cost in every cycle it ran.
+    estimator: Samples<'a>,
     breakdown: Breakdown,
     outcomes: Outcomes,
     transitions: Transitions,
@@ -179,12 +207,15 @@ struct LoopResults<'a> {
 /// the fault the `inject-*` programs provoke.
 pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
     let mut flags = announce(board);
+    board.place_stand_in(trajectory::script(0).pose.into());
     let mut results = realtime_loop(board, inject).await;
     let step = results.steps.summary();
     let barycenter = results.solver.summary();
-    print_loop_results(board, &results, &step, &barycenter);
+    let estimator = results.estimator.summary();
+    print_loop_results(board, &results, &step, &barycenter, &estimator);
     barycenter_phases(&board.clock);
     let method_worst = replay_other_methods(&board.clock, &mut results.solver, barycenter.max);
+    let forward = replay_forward_kinematics(&board.clock, &mut results.solver);
 
     let (torques, brakes) = drives::drive_outputs();
     defmt::println!(
@@ -199,8 +230,12 @@ pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
     flags |= verdict_flags(&results, &step);
     let code = if flags == 0 { exit::PASS } else { exit::FAIL | flags };
     print_verdict(code, flags, step.max);
-    let report =
-        Report { method_worst, receive_worst, ..summarise(board, &results, &step, &barycenter, code) };
+    let report = Report {
+        method_worst,
+        receive_worst,
+        forward,
+        ..summarise(board, &results, &step, &barycenter, &estimator, code)
+    };
     log_record(&Record::Finished(report));
     crate::exit(code)
 }
@@ -253,12 +288,15 @@ async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults
     let Board { clock, drives, control, .. } = board;
     let steps_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
     let solver_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
-    let (Some(steps_buf), Some(solver_buf)) = (steps_buf, solver_buf) else {
+    let estimator_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
+    let (Some(steps_buf), Some(solver_buf), Some(estimator_buf)) = (steps_buf, solver_buf, estimator_buf)
+    else {
         panic!("statistics buffers taken twice");
     };
     let mut r = LoopResults {
         steps: Samples::new(steps_buf),
         solver: Samples::new(solver_buf),
+        estimator: Samples::new(estimator_buf),
         breakdown: Breakdown::default(),
         outcomes: Outcomes::default(),
         transitions: Transitions { states: [State::Disabled; MAX_STATES], len: 0 },
@@ -269,30 +307,43 @@ async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults
     };
     r.transitions.push(control.supervisor().state());
     let ramp_cycles = control.supervisor().limits().ramp_cycles;
-    let mut operator = Operator { enable: trajectory::PRELUDE_CYCLES == 0, fault_since: None, ramp_cycles };
+    let mut operator =
+        Operator { enable: trajectory::PRELUDE_CYCLES == 0, scheme: None, fault_since: None, ramp_cycles };
+    // The platform (the encoders' stand-in) rests at the script's first
+    // pose: home there, with the task-space scheme for the first stretch.
+    let home = trajectory::script(0).pose;
+    control.receive(HostMessage::Home(home.into()));
+    control.receive(HostMessage::SelectFeedback(Scheme::TaskSpace.wire_id()));
     let mut overrun = false;
     let mut previous_ok = true;
 
     let mut releases = Releases::start().await;
     let mut last_start = clock.ticks();
     for k in 0..CYCLES as u32 {
+        // The script's setpoint: what a host computes and sends (the
+        // product receives it), so not part of the measured step.
+        let setpoint = trajectory::script(k);
+        let message = HostMessage::Setpoint(setpoint.to_wire());
         let start = clock.ticks();
         bsp::feed_watchdog();
         r.period_ticks += u64::from(start.wrapping_sub(last_start));
         last_start = start;
 
-        // The measured control step: setpoint -> checks -> solve ->
-        // supervisor -> drives.
-        let setpoint = trajectory::script(k);
-        control.receive(HostMessage::Setpoint(setpoint.to_wire()));
+        // The measured control step: setpoint checks -> encoders ->
+        // kinematics -> estimator -> feedback -> solve -> supervisor ->
+        // drives.
+        control.receive(message);
         if operator.enable {
             control.receive(HostMessage::Enable);
         }
         let t_setpoint = clock.ticks();
-        let report = control.step(clock, drives, &Wrench::zeros(), overrun);
+        let report = control.step(clock, drives, overrun);
         let end = clock.ticks();
         let ticks = end.wrapping_sub(start);
         control.record_cost(units(ticks));
+        // The encoders' stand-in, outside the measured step.
+        let tracked = control.last_feasible_setpoint().map(|s| s.pose);
+        drives.advance(control.controller().robot(), tracked.as_ref());
 
         r.record_step(&report, start, t_setpoint, end);
         if k == INJECT_AT {
@@ -323,11 +374,29 @@ impl LoopResults<'_> {
         self.breakdown.setpoint.push(units(t_setpoint.wrapping_sub(start)));
         let mut phases = 0;
         if let Some(cycle) = &report.solved {
+            self.breakdown.read.push(units(cycle.ticks.read));
+            self.breakdown.estimator.push(units(cycle.ticks.estimator));
+            self.breakdown.feedback.push(units(cycle.ticks.feedback));
+            if let Some(estimate) = &report.estimate {
+                self.estimator.push(units(cycle.ticks.estimator));
+                match estimate {
+                    Ok(e) => {
+                        self.outcomes.estimated += 1;
+                        self.outcomes.residual_um = self.outcomes.residual_um.max((e.residual * 1e6) as u32);
+                    }
+                    Err(_) => self.outcomes.unestimated += 1,
+                }
+            }
             self.solver.push(units(cycle.ticks.solver));
             self.breakdown.kinematics.push(units(cycle.ticks.kinematics));
             self.breakdown.solver.push(units(cycle.ticks.solver));
             self.breakdown.torques.push(units(cycle.ticks.torques));
-            phases = cycle.ticks.kinematics + cycle.ticks.solver + cycle.ticks.torques;
+            phases = cycle.ticks.kinematics
+                + cycle.ticks.solver
+                + cycle.ticks.torques
+                + cycle.ticks.read
+                + cycle.ticks.estimator
+                + cycle.ticks.feedback;
             self.outcomes.count(&cycle.result);
             if let Ok(command) = &cycle.result {
                 match command.warm_start {
@@ -364,7 +433,7 @@ impl LoopResults<'_> {
 }
 
 /// The real-time loop's statistics, readable.
-fn print_loop_results(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summary) {
+fn print_loop_results(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summary, e: &Summary) {
     defmt::println!(
         "control-step {=str}: min {=u32} median {=u32} max {=u32} over {=u32} cycles, overruns {=u32}",
         bsp::UNIT,
@@ -381,14 +450,31 @@ fn print_loop_results(board: &Board, r: &LoopResults, step: &Summary, barycenter
         share % 10
     );
     summary_line("barycenter", "warm-started, solver only, same cycles", barycenter);
+    defmt::println!(
+        "forward kinematics (the estimator's Gauss-Newton step, in the loop) {=str}: min {=u32} median {=u32} max {=u32} over {=u32} cycles; estimates ok {=u32}, failed {=u32} (largest residual {=u32} um)",
+        bsp::UNIT,
+        e.min,
+        e.median,
+        e.max,
+        e.count,
+        r.outcomes.estimated,
+        r.outcomes.unestimated,
+        r.outcomes.residual_um,
+    );
     let b = &r.breakdown;
     defmt::println!(
-        "step breakdown, mean/max {=str}: setpoint and checks {=u32}/{=u32}, kinematics (W and f with motion) {=u32}/{=u32}, solver {=u32}/{=u32}, torques {=u32}/{=u32}, supervisor and drives {=u32}/{=u32}",
+        "step breakdown, mean/max {=str}: setpoint and checks {=u32}/{=u32}, encoders {=u32}/{=u32}, kinematics (lengths, W and f with motion) {=u32}/{=u32}, estimator {=u32}/{=u32}, feedback {=u32}/{=u32}, solver {=u32}/{=u32}, torques {=u32}/{=u32}, supervisor and drives {=u32}/{=u32}",
         bsp::UNIT,
         b.setpoint.mean(),
         b.setpoint.max(),
+        b.read.mean(),
+        b.read.max(),
         b.kinematics.mean(),
         b.kinematics.max(),
+        b.estimator.mean(),
+        b.estimator.max(),
+        b.feedback.mean(),
+        b.feedback.max(),
         b.solver.mean(),
         b.solver.max(),
         b.torques.mean(),
@@ -469,6 +555,75 @@ fn replay_other_methods(clock: &Tim2Counter, solver: &mut Samples, barycenter: u
     worst
 }
 
+/// `tension_core`'s forward kinematics (`Robot::forward_kinematics`, its
+/// default settings: warm run, chord steps, the bounded cold start when
+/// the warm run fails) over the lengths of the encoders' stand-in as it
+/// follows the script (not real time, after the loop; interrupts off for
+/// each call), each call warm-started from the previous answer. The
+/// in-loop estimator is its one-step special case about the setpoint; this
+/// is the full solver's own cost on the board. Returns min, median, max.
+fn replay_forward_kinematics(clock: &Tim2Counter, samples: &mut Samples) -> Spread {
+    use cdpr_control::setpoint::Pose6;
+    use tension_core::forward_kinematics::ForwardSettings;
+    samples.clear();
+    let controller = controller(Method::Barycenter);
+    let robot = controller.robot();
+    let settings = ForwardSettings::for_robot(robot);
+    let Ok(scale) = crate::robot::encoder_scale() else { return Spread::default() };
+    let start = trajectory::script(0).pose;
+    let Some(mut winches) = cdpr_demo::winches::LagWinches::at_pose(robot, scale, &start) else {
+        return Spread::default();
+    };
+    let mut warm: Option<Pose6> = Some(start);
+    let (mut ok, mut failed, mut cold, mut iterations, mut worst_residual) = (0u32, 0u32, 0u32, 0u32, 0.0f32);
+    let (mut worst_warm, mut worst_cold) = (0u32, 0u32);
+    for k in 0..CYCLES as u32 {
+        winches.follow(robot, Some(&trajectory::script(k).pose), 0.001);
+        let lengths = tension_core::nalgebra::SVector::<f32, CABLES>::from(*winches.lengths());
+        let (ticks, result) = cortex_m::interrupt::free(|_| {
+            let t = clock.ticks();
+            let result = robot.forward_kinematics(&lengths, warm.as_ref(), &settings);
+            (clock.since(t), result)
+        });
+        let cost = units(ticks);
+        samples.push(cost);
+        match result {
+            Ok(solution) => {
+                ok += 1;
+                warm = Some(solution.pose);
+                iterations = iterations.max(solution.iterations);
+                if solution.worst > worst_residual {
+                    worst_residual = solution.worst;
+                }
+                if solution.cold_started {
+                    cold += 1;
+                    worst_cold = worst_cold.max(cost);
+                } else {
+                    worst_warm = worst_warm.max(cost);
+                }
+            }
+            Err(_) => failed += 1,
+        }
+    }
+    let s = samples.summary();
+    defmt::println!(
+        "forward kinematics (tension-core, warm from the previous answer, replayed over the stand-in's lengths) {=str}: min {=u32} median {=u32} max {=u32} over {=u32} calls; worst warm {=u32}, worst with a cold start {=u32} ({=u32} cold starts); {=u32} ok, {=u32} failed; most iterations {=u32}, worst residual {=u32} um",
+        bsp::UNIT,
+        s.min,
+        s.median,
+        s.max,
+        s.count,
+        worst_warm,
+        worst_cold,
+        cold,
+        ok,
+        failed,
+        iterations,
+        (worst_residual * 1e6) as u32,
+    );
+    Spread { min: s.min, median: s.median, max: s.max }
+}
+
 /// Cycles of each kind of byte flood [`receive_flood`] times.
 const FLOOD_CYCLES: u32 = 16;
 
@@ -482,7 +637,7 @@ fn receive_flood(board: &mut Board) -> u32 {
     use cdpr_control::protocol::{encode, MAX_FRAME};
     let Board { clock, drives, control, .. } = board;
     control.receive(HostMessage::Disable);
-    control.step(&*clock, drives, &Wrench::zeros(), false);
+    control.step(&*clock, drives, false);
     let mut frame = [0u8; MAX_FRAME];
     let setpoint = HostMessage::Setpoint(trajectory::setpoint(0).to_wire());
     let frame_len = encode(&setpoint, &mut frame).unwrap_or(0).max(1);
@@ -573,7 +728,14 @@ fn print_verdict(code: i32, flags: i32, max: u32) {
 }
 
 /// The report `cargo xtask` decodes.
-fn summarise(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summary, exit_code: i32) -> Report {
+fn summarise(
+    board: &Board,
+    r: &LoopResults,
+    step: &Summary,
+    barycenter: &Summary,
+    estimator: &Summary,
+    exit_code: i32,
+) -> Report {
     let spread = |s: &Summary| Spread { min: s.min, median: s.median, max: s.max };
     let (stack_used, stack_size) = stack::stack_high_water();
     Report {
@@ -581,6 +743,7 @@ fn summarise(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summar
         cycles: step.count,
         step: spread(step),
         solver: spread(barycenter),
+        estimator: spread(estimator),
         overruns: r.overruns,
         calibration_ticks: board.calibration_ticks,
         calibration_expected: clock::expected_calibration_ticks() as u32,
@@ -595,6 +758,7 @@ fn summarise(board: &Board, r: &LoopResults, step: &Summary, barycenter: &Summar
         exit_code,
         method_worst: [0; 10],
         receive_worst: 0,
+        forward: Spread::default(),
     }
 }
 

@@ -1,14 +1,23 @@
 //! The winch drives and the emergency stop.
 //!
 //! The QEMU board has no drives, so the commands are kept (the last one)
-//! and counted. A board port puts its PWM timers and pins behind
+//! and counted, and the encoders are a stand-in
+//! ([`cdpr_demo::winches::LagWinches`]: the cables follow the tracked
+//! setpoint with a 5 ms lag, read as counts), advanced by the program
+//! outside the measured step ([`Drives::advance`]). On the real STM32F405
+//! (`board` feature) the encoders come with the CAN drives of a later
+//! issue: until then [`WinchDrives::read`] is
+//! [`DriveError::NoEncoders`], which keeps the control loop unhomed, so
+//! every `Enable` is refused: the board never commands torques it cannot
+//! close the loop on. A board port puts its PWM timers and pins behind
 //! [`cdpr_control::drives::PwmDrives`] (embedded-hal 1.0) or a CAN driver
 //! here, and makes [`emergency_stop`] write zero torque and drop the brake
 //! pin directly.
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use cdpr_control::{WinchDrives, CABLES};
+use cdpr_control::setpoint::Pose6;
+use cdpr_control::{WinchDrives, WinchReading, CABLES};
 
 /// Set once the emergency stop has run; the drives then refuse commands.
 static STOPPED: AtomicBool = AtomicBool::new(false);
@@ -21,17 +30,54 @@ static BRAKES: AtomicBool = AtomicBool::new(true);
 /// The winch drives.
 pub struct Drives {
     writes: u32,
+    /// The encoders' stand-in (QEMU only; `None` until placed).
+    #[cfg(not(feature = "board"))]
+    stand_in: Option<cdpr_demo::winches::LagWinches>,
 }
 
 impl Drives {
-    /// No command yet (torques zero, brakes engaged).
+    /// No command yet (torques zero, brakes engaged), no encoders.
     pub const fn new() -> Self {
-        Self { writes: 0 }
+        Self {
+            writes: 0,
+            #[cfg(not(feature = "board"))]
+            stand_in: None,
+        }
     }
 
     /// Commands written so far.
     pub fn writes(&self) -> u32 {
         self.writes
+    }
+
+    /// Puts the encoders' stand-in at rest at `pose` (QEMU; the real board
+    /// has no stand-in: nothing happens). Returns whether it was placed.
+    pub fn place_stand_in(&mut self, robot: &cdpr_control::ControlRobot, pose: &Pose6) -> bool {
+        #[cfg(not(feature = "board"))]
+        {
+            let scale = match crate::robot::encoder_scale() {
+                Ok(s) => s,
+                Err(_) => return false,
+            };
+            self.stand_in = cdpr_demo::winches::LagWinches::at_pose(robot, scale, pose);
+            self.stand_in.is_some()
+        }
+        #[cfg(feature = "board")]
+        {
+            let _ = (robot, pose);
+            false
+        }
+    }
+
+    /// One period of the stand-in towards `pose` (the tracked setpoint's);
+    /// call outside the measured step. Nothing on the real board.
+    pub fn advance(&mut self, robot: &cdpr_control::ControlRobot, pose: Option<&Pose6>) {
+        #[cfg(not(feature = "board"))]
+        if let Some(w) = &mut self.stand_in {
+            w.follow(robot, pose, 0.001);
+        }
+        #[cfg(feature = "board")]
+        let _ = (robot, pose);
     }
 }
 
@@ -41,16 +87,22 @@ impl Default for Drives {
     }
 }
 
-/// Why a drive refused a command.
+/// Why a drive refused a command or could not be read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct DrivesStopped;
+pub enum DriveError {
+    /// The emergency stop has run.
+    Stopped,
+    /// No encoder to read (the real board before its CAN drives; QEMU
+    /// before the stand-in is placed).
+    NoEncoders,
+}
 
 impl WinchDrives for Drives {
-    type Error = DrivesStopped;
+    type Error = DriveError;
 
-    fn apply(&mut self, torques: &[f32; CABLES]) -> Result<(), DrivesStopped> {
+    fn apply(&mut self, torques: &[f32; CABLES]) -> Result<(), DriveError> {
         if STOPPED.load(Ordering::Relaxed) {
-            return Err(DrivesStopped);
+            return Err(DriveError::Stopped);
         }
         for (slot, t) in LAST_TORQUES.iter().zip(torques) {
             slot.store(t.to_bits(), Ordering::Relaxed);
@@ -59,12 +111,25 @@ impl WinchDrives for Drives {
         Ok(())
     }
 
-    fn set_brakes(&mut self, engaged: bool) -> Result<(), DrivesStopped> {
+    fn set_brakes(&mut self, engaged: bool) -> Result<(), DriveError> {
         if STOPPED.load(Ordering::Relaxed) {
-            return Err(DrivesStopped);
+            return Err(DriveError::Stopped);
         }
         BRAKES.store(engaged, Ordering::Relaxed);
         Ok(())
+    }
+
+    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), DriveError> {
+        if STOPPED.load(Ordering::Relaxed) {
+            return Err(DriveError::Stopped);
+        }
+        #[cfg(not(feature = "board"))]
+        if let Some(w) = &self.stand_in {
+            *readings = *w.readings();
+            return Ok(());
+        }
+        let _ = readings;
+        Err(DriveError::NoEncoders)
     }
 }
 

@@ -87,8 +87,28 @@ impl Board {
         };
         // Only the methods whose worst case fits the step budget.
         control.offer_only(cdpr_demo::methods::offered());
+        match robot::encoder_scale() {
+            Ok(scale) => control.set_encoder(scale),
+            Err(e) => panic!("robot file's encoders rejected: {:?}", e),
+        }
         let board = Self { clock, calibration_ticks, drives: Drives::new(), control };
         (board, Rest { rcc: dp.RCC, usart1: dp.USART1, iwdg: dp.IWDG })
+    }
+
+    /// Puts the encoders' stand-in (QEMU) at rest at `pose`: where the
+    /// host's `Home` says the platform is.
+    pub fn place_stand_in(&mut self, pose: [f32; 6]) {
+        let pose = cdpr_control::setpoint::Pose6::from(pose);
+        if !self.drives.place_stand_in(self.control.controller().robot(), &pose) && !cfg!(feature = "board") {
+            panic!("the encoders' stand-in has no kinematics at its start pose");
+        }
+    }
+
+    /// One period of the encoders' stand-in towards the setpoint the loop
+    /// tracks (the last feasible one); outside the measured step.
+    pub fn advance_stand_in(&mut self) {
+        let pose = self.control.last_feasible_setpoint().map(|s| s.pose);
+        self.drives.advance(self.control.controller().robot(), pose.as_ref());
     }
 
     /// Starts the watchdog (board only); the control loop feeds it every

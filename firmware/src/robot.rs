@@ -2,6 +2,7 @@
 //! from its robot file (`robots/suspended-8.toml` unless `CDPR_ROBOT` names
 //! another; see `build.rs`), and the control loop's setpoint range for it.
 
+use cdpr_control::encoder::{EncoderScale, ScaleError};
 use cdpr_control::link::SetpointRange;
 use cdpr_control::{ControlRobot, CABLES};
 use tension_core::nalgebra::{Matrix3, SVector, Vector3};
@@ -32,6 +33,12 @@ pub fn robot() -> Result<ControlRobot, Error> {
         platform,
         Some(Winch::new(DRUM_RADIUS, GEAR_RATIO, EFFICIENCY, TORQUE_MAX)?),
     )
+}
+
+/// The winch encoders' scale: `[winch]`'s drum radius, gear ratio,
+/// counts per revolution and signs.
+pub fn encoder_scale() -> Result<EncoderScale, ScaleError> {
+    EncoderScale::new(DRUM_RADIUS, GEAR_RATIO, COUNTS_PER_REVOLUTION, ENCODER_SIGNS)
 }
 
 /// The range a setpoint must lie in to be acted on (see

@@ -6,9 +6,12 @@
 //! and the numbers.
 //!
 //! The plant implements `cdpr_control::WinchDrives`: the control loop
-//! writes motor torque commands and the brake command straight into it.
+//! writes motor torque commands and the brake command straight into it
+//! and reads its motor encoders (the paid-out length in counts, with the
+//! robot file's counts per revolution and signs and an arbitrary offset
+//! per drive, and the motor speed).
 
-use cdpr_control::{WinchDrives, CABLES};
+use cdpr_control::{WinchDrives, WinchReading, CABLES};
 use nalgebra::{Matrix3, Quaternion, SVector, UnitQuaternion, Vector3};
 use tension_core::{Error, Method, Robot, TensionSolver};
 
@@ -194,6 +197,21 @@ pub struct Plant {
     brake_command: bool,
     brake_since: f64,
     locked: bool,
+    encoder: Encoders,
+}
+
+/// The motor encoders' counting: counts per motor turn, sign per cable
+/// (`+1`: the count rises as the cable pays out) and the count at zero
+/// paid-out length.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Encoders {
+    /// Counts per motor revolution.
+    pub counts_per_revolution: u32,
+    /// Sign per cable.
+    pub signs: [i8; CABLES],
+    /// Count at zero length per cable (arbitrary: a real encoder's count
+    /// at power-up says nothing about the length).
+    pub offsets: [i32; CABLES],
 }
 
 /// Pose `[x, y, z, rx, ry, rz]` of a rotation matrix and a position
@@ -263,6 +281,13 @@ impl Plant {
             brake_command: true,
             brake_since: f64::NEG_INFINITY,
             locked: true,
+            encoder: Encoders {
+                counts_per_revolution: model.encoder_counts,
+                signs: [1; CABLES],
+                // Near the 32-bit wrap for some drives, so the loop's
+                // wrapping arithmetic is exercised.
+                offsets: core::array::from_fn(|i| (i as i32 - 4).wrapping_mul(0x1234_5677)),
+            },
         })
     }
 
@@ -440,6 +465,16 @@ impl Plant {
         }
     }
 
+    /// The encoders' counting (from the robot file's `[winch]`).
+    pub fn set_encoders(&mut self, encoders: Encoders) {
+        self.encoder = encoders;
+    }
+
+    /// The encoders' counting.
+    pub fn encoders(&self) -> Encoders {
+        self.encoder
+    }
+
     /// The winch encoders' cable lengths (paid-out length, quantised to
     /// one encoder count), m.
     pub fn encoder_lengths(&self) -> [f64; CABLES] {
@@ -451,6 +486,22 @@ impl Plant {
 
 impl WinchDrives for Plant {
     type Error = DriveError;
+
+    /// The paid-out length in counts (rounded, wrapping 32-bit) and the
+    /// motor speed in counts per second; never fails.
+    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), DriveError> {
+        let e = &self.encoder;
+        let count = 2.0 * core::f64::consts::PI * self.winch.drum_radius
+            / (self.winch.gear_ratio * f64::from(e.counts_per_revolution));
+        for (i, r) in readings.iter_mut().enumerate() {
+            let s = f64::from(e.signs[i]);
+            // Within +-2^31 counts (16 km of cable): the casts are exact.
+            let counts = (s * self.state.len[i] / count).round() as i64;
+            r.counts = e.offsets[i].wrapping_add(counts as i32);
+            r.counts_per_second = (s * self.state.rate[i] / count).round() as i32;
+        }
+        Ok(())
+    }
 
     fn apply(&mut self, torques: &[f32; CABLES]) -> Result<(), DriveError> {
         let mut result = Ok(());

@@ -1,27 +1,27 @@
 //! Closed-loop runs: the firmware's control loop (`cdpr_control::ControlLoop`,
-//! fed byte by byte through the simulated serial link) with the task-space
-//! PID, against the simulated robot, scripted by a [`Scenario`].
+//! fed byte by byte through the simulated serial link) with its task-space
+//! PID on the pose it estimates from the winch encoders, against the
+//! simulated robot, scripted by a [`Scenario`].
 //!
-//! Every 1 ms cycle, in this order (the firmware's order, plus the two
-//! sensor-based steps it has no hardware for yet):
+//! Every 1 ms cycle, in this order (the firmware's order):
 //!
-//! 1. the host queues its frames (a setpoint of the reference path every
-//!    cycle while it streams, `Enable` once), the link delivers at most
-//!    100 bytes (1 Mbit/s), each goes to `ControlLoop::receive_byte`;
-//! 2. the plant is sampled: pose and twist (the PID's measurement, taken
-//!    from the simulator state) and the encoders' cable lengths;
-//! 3. `ControlLoop::check_lengths` (cable-length supervision);
-//! 4. the PID's wrench for the newest setpoint, its negative passed as
-//!    `extra` to `ControlLoop::step`, which writes torques and brakes into
-//!    the plant (`WinchDrives`);
-//! 5. telemetry frames go back over the link to the host;
-//! 6. the plant integrates 1 ms (RK4, 0.1 ms steps) with those commands.
+//! 1. the host queues its frames (`TelemetryPeriod`, `SelectFeedback(1)`
+//!    and `Home` with the path's start pose at the start, a setpoint of
+//!    the reference path every cycle while it streams, `Enable` once), the
+//!    link delivers at most 100 bytes (1 Mbit/s), each goes to
+//!    `ControlLoop::receive_byte`;
+//! 2. the plant is sampled (the true pose, for the records only);
+//! 3. `ControlLoop::step` reads the plant's encoders, checks the lengths,
+//!    estimates the pose, runs the PID and the tension distribution and
+//!    writes torques and brakes into the plant (`WinchDrives`);
+//! 4. telemetry frames go back over the link to the host;
+//! 5. the plant integrates 1 ms (RK4, 0.1 ms steps) with those commands.
 
-use cdpr_control::controller::{FrictionCompensation, Wrench};
-use cdpr_control::feedback::{extrapolate, FeedbackLimits, Gains, Measured, TaskPid};
+use cdpr_control::controller::FrictionCompensation;
+use cdpr_control::encoder::EncoderScale;
+use cdpr_control::feedback::{FeedbackLimits, Gains, Scheme, TaskPid};
 use cdpr_control::link::SetpointRange;
 use cdpr_control::protocol::{HostMessage, Reason, Setpoint as WireSetpoint, State, Telemetry};
-use cdpr_control::setpoint::Pose6;
 use cdpr_control::supervisor::SafetyLimits;
 use cdpr_control::{ControlLoop, ControlRobot, TickCounter, CABLES};
 use nalgebra::{SVector, Vector3};
@@ -29,7 +29,9 @@ use tension_core::trajectory::time_law;
 use tension_core::Method;
 
 use crate::link::{Host, SerialLink, SimClock, WallTicks, BYTES_PER_CYCLE_1MBAUD};
-use crate::plant::{CableModel, Derate, Disturbance, Mismatch, Plant, PlantFaults, PlantRobot, WinchModel};
+use crate::plant::{
+    CableModel, Derate, Disturbance, Encoders, Mismatch, Plant, PlantFaults, PlantRobot, WinchModel,
+};
 
 /// Control period, s.
 pub const PERIOD: f64 = 0.001;
@@ -127,6 +129,8 @@ pub struct Scenario {
     pub faults: PlantFaults,
     /// The time of the injected event (fault, step, lost stream), if any.
     pub event: Option<f64>,
+    /// The feedback scheme the host selects (`SelectFeedback`).
+    pub scheme: Scheme,
 }
 
 /// The payload error of every scenario: 2 % heavier than the robot file,
@@ -160,6 +164,12 @@ impl Scenario {
             disturbances: Vec::new(),
             faults: PlantFaults::default(),
             event: None,
+            // The articular scheme unless a scenario says otherwise: its
+            // tension changes are limited to the tension range instead of
+            // making the wrench infeasible (the task-space wrench does that
+            // at the top of the tracking loop, where the tensions are near
+            // t_min).
+            scheme: Scheme::JointSpace,
         }
     }
 
@@ -173,6 +183,8 @@ impl Scenario {
                 10.05,
                 Path::Hold(pose),
             );
+            // The static holds run the task-space PID on the estimated pose.
+            s.scheme = Scheme::TaskSpace;
             s.disturbances.push(Disturbance {
                 start: 3.0,
                 end: 6.0,
@@ -339,6 +351,8 @@ pub struct Row {
     /// The PID's wrench (what the cables add to the feed-forward; base
     /// frame, about the platform origin), N and N m.
     pub feedback: [f32; 6],
+    /// The control loop's pose estimate this cycle (NaN when none).
+    pub estimate: [f32; 6],
 }
 
 impl Row {
@@ -412,12 +426,30 @@ pub fn load_controller_robot() -> Result<ControlRobot, String> {
     file.to_robot::<f32, 6, CABLES>().map_err(|e| format!("{}: {e:?}", path.display()))
 }
 
+/// The robot file's encoders: the control loop's scale and the plant's
+/// counting.
+fn load_encoders() -> Result<(EncoderScale, [i8; CABLES], u32), String> {
+    let path = robot_file_path();
+    let file = robot_file::RobotFile::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let winch = file.winch.ok_or("no [winch]")?;
+    let mut signs = [1i8; CABLES];
+    for (s, &f) in signs.iter_mut().zip(&file.encoder.signs) {
+        *s = f;
+    }
+    let cpr = file.encoder.counts_per_revolution;
+    let scale = EncoderScale::new(winch[0] as f32, winch[1] as f32, cpr, signs)
+        .map_err(|e| format!("{}: encoder {e:?}", path.display()))?;
+    Ok((scale, signs, cpr))
+}
+
 /// Runs `scenario` with `config`.
 pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let robot = load_robot()?;
     let mut plant =
         Plant::new(robot, config.winch, config.cable, scenario.mismatch, scenario.path.start(), config.dt)
             .map_err(|e| format!("start pose: {}", e.status()))?;
+    let (scale, signs, cpr) = load_encoders()?;
+    plant.set_encoders(Encoders { counts_per_revolution: cpr, signs, ..plant.encoders() });
     plant.set_faults(scenario.faults);
     for d in &scenario.disturbances {
         plant.add_disturbance(*d);
@@ -428,7 +460,9 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let mut control = ControlLoop::new(controller_robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
         .map_err(|e| format!("control loop: {}", e.status()))?;
     control.controller_mut().set_friction(config.friction);
-    let mut pid = TaskPid::new(config.gains, config.limits);
+    control.set_encoder(scale);
+    control.set_task_pid(TaskPid::new(config.gains, config.limits));
+    control.set_tracking_limit(Some(config.length_limit));
     let mut link = SerialLink::new(config.bytes_per_cycle);
     let mut host = Host::new();
     let mut clock = SimClock::default();
@@ -445,6 +479,9 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
         host.send(link, &m).map_err(|e| format!("encode: {e:?}"))
     };
     send(&host, &mut link, HostMessage::TelemetryPeriod(10))?;
+    // The platform rests at the path's start on its brakes: home there.
+    send(&host, &mut link, HostMessage::SelectFeedback(scenario.scheme.wire_id()))?;
+    send(&host, &mut link, HostMessage::Home(scenario.path.start().map(|v| v as f32)))?;
 
     for k in 0..cycles {
         let t = f64::from(k) * PERIOD;
@@ -460,35 +497,8 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
         }
 
         let sample = plant.sample();
-        let lengths = plant.encoder_lengths().map(|l| l as f32);
-        control.check_lengths(&lengths, config.length_limit);
-
-        let state = control.supervisor().state();
-        if matches!(state, State::Disabled | State::Fault) {
-            pid.reset();
-        }
-        let measured = Measured {
-            pose: Pose6::from(sample.pose.map(|v| v as f32)),
-            velocity: sample.velocity.map(|v| v as f32),
-            angular_velocity: sample.angular_velocity.map(|v| v as f32),
-        };
-        // The PID's reference: the newest setpoint, extrapolated over its age.
-        let feedback = match (control.newest_setpoint(), control.newest_setpoint_age()) {
-            (Some(sp), Some(age)) => {
-                let reference = extrapolate(sp, age as f32 * PERIOD as f32);
-                pid.update(
-                    control.controller().robot(),
-                    &reference,
-                    &measured,
-                    PERIOD as f32,
-                    state == State::Enabled,
-                )
-                .unwrap_or_else(|_| Wrench::zeros())
-            }
-            _ => Wrench::zeros(),
-        };
         let start = wall.ticks();
-        let report = control.step(&clock, &mut plant, &(-feedback), false);
+        let report = control.step(&clock, &mut plant, false);
         let cost = wall.since(start);
         control.record_cost(cost);
         step_sum += u64::from(cost);
@@ -520,7 +530,11 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
             tensions: sample.tensions,
             commanded,
             torques: report.torques,
-            feedback: feedback.into(),
+            feedback: report.feedback.into(),
+            estimate: match report.estimate {
+                Some(Ok(e)) => e.pose.into(),
+                _ => [f32::NAN; 6],
+            },
         });
         plant.advance(PERIOD);
         clock.micros += 1000;

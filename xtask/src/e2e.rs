@@ -9,9 +9,14 @@
 //! every stream would look stale).
 //!
 //! Scenario (each step one check):
+//! 0. `Enable` before homing is refused (`last_rejection` homing); `Home`
+//!    with the trajectory's first pose (where the QEMU board's stand-in of
+//!    the winches rests at reset) makes the board report `homed`;
 //! 1. stream the demo trajectory's feasible part (1200 setpoints, about 1 ms
 //!    apart), enable, and compare every telemetry sample's tensions and
-//!    torques with `tension-core` in `f64` on the host for the same setpoint;
+//!    torques with `tension-core` in `f64` on the host for the same setpoint
+//!    (feed-forward, the board's default scheme), and the board's pose
+//!    estimate from its encoders with the setpoint;
 //! 2. a corrupted frame: counted as rejected, the state stays Enabled;
 //! 3. NaN poses: Holding (bad setpoint), then Fault (held too long), torques
 //!    ramped to zero with the brakes engaged; then ClearFault and Enable
@@ -41,7 +46,8 @@ use std::{
 
 use cdpr_demo::trajectory;
 use cdpr_protocol::{
-    encode, DeviceMessage, FrameDecoder, HostMessage, Reason, Setpoint, State, Telemetry, MAX_FRAME,
+    encode, DeviceMessage, FrameDecoder, HostMessage, Reason, Rejection, Setpoint, State, Telemetry,
+    MAX_FRAME,
 };
 use tension_core::nalgebra::SVector;
 use tension_core::{Method, Robot, TensionSolver};
@@ -384,6 +390,7 @@ fn host_robot() -> Result<(Robot68, Tolerances), String> {
 fn scenario(results: &mut Vec<Check>) -> Result<(), String> {
     let (robot, tolerances) = host_robot()?;
     let mut s = Session::start()?;
+    results.push(homing(&mut s)?);
     let tracking = track(&mut s)?;
     let last = tracking.last().copied();
     results.push(corrupted_frame(&mut s, last)?);
@@ -404,7 +411,8 @@ fn scenario(results: &mut Vec<Check>) -> Result<(), String> {
         Err(e) => Err(e),
         Ok(c) => judge_tracking(c, &tracking, last, tolerances.tension, tolerances.torque),
     };
-    results.insert(0, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
+    results.insert(1, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
+    results.insert(2, estimates(&tracking_sent, &tracking));
 
     let garbage = s.received.lock().unwrap().rejected_frames;
     if garbage > 0 {
@@ -413,8 +421,75 @@ fn scenario(results: &mut Vec<Check>) -> Result<(), String> {
     Ok(())
 }
 
+/// Largest distance (m) of the board's pose estimate from the setpoint
+/// it reports while Enabled: the QEMU stand-in of the winches follows the
+/// setpoints with a 5 ms lag, so at the trajectory's 1.4 m/s it trails by
+/// 7 mm; 20 mm is the length check's limit.
+const ESTIMATE_TOLERANCE: f64 = 0.02;
+
+/// The tracking phase's estimates: homed, a residual, and the estimated
+/// position near the setpoint's in every Enabled sample.
+fn estimates(sent: &HashMap<u32, Setpoint>, samples: &[Telemetry]) -> Check {
+    let mut worst = 0.0f64;
+    let mut residual = 0.0f64;
+    let mut n = 0;
+    let mut bad = None;
+    for t in samples.iter().filter(|t| t.state == State::Enabled) {
+        let Some(sp) = sent.get(&t.setpoint_seq) else { continue };
+        if !t.homed || !t.residual.is_finite() {
+            bad = Some(*t);
+            break;
+        }
+        let d = (0..3).map(|k| f64::from(t.estimate[k] - sp.pose[k]).powi(2)).sum::<f64>().sqrt();
+        worst = worst.max(d);
+        residual = residual.max(f64::from(t.residual));
+        n += 1;
+    }
+    let figures = format!(
+        "{n} Enabled samples: estimated position within {:.2} mm of the setpoint (tolerance {:.0} mm: the stand-in lags 5 ms), worst residual {:.1} um",
+        worst * 1e3,
+        ESTIMATE_TOLERANCE * 1e3,
+        residual * 1e6
+    );
+    (
+        "the board's pose estimate from its encoders follows the stream".into(),
+        match bad {
+            Some(t) => Err(format!("sample without an estimate: {t:?}")),
+            None if n < 20 || worst > ESTIMATE_TOLERANCE => Err(figures),
+            None => Ok(figures),
+        },
+    )
+}
+
 /// The pause between two frames of a stream.
 const PACE: Duration = Duration::from_millis(1);
+
+/// Phase 0: Enable before Home is refused; Home makes the board homed.
+fn homing(s: &mut Session) -> Result<Check, String> {
+    let from = s.telemetry_count();
+    s.send(&HostMessage::Enable)?;
+    let refused = s.wait_for(from, Duration::from_secs(10), |t| {
+        t.counters.last_rejection == Rejection::Homing && t.state == State::Disabled && !t.homed
+    });
+    let from = s.telemetry_count();
+    let pose = trajectory::setpoint(0).pose;
+    s.send(&HostMessage::Home(pose.into()))?;
+    let homed = s.wait_for(from, Duration::from_secs(10), |t| t.homed);
+    Ok((
+        "Enable refused before homing; Home homes the board".into(),
+        match (refused, homed) {
+            (Some(r), Some(h)) => Ok(format!(
+                "Enable refused at cycle {} (last rejection {}), homed at cycle {}: estimate {:?}, residual {:.1} um",
+                r.cycle,
+                r.counters.last_rejection.name(),
+                h.cycle,
+                h.estimate,
+                h.residual * 1e6
+            )),
+            (r, h) => Err(format!("refused: {r:?}; homed: {h:?}")),
+        },
+    ))
+}
 
 /// Tracking (phase 1): stream the trajectory's first setpoints, enable;
 /// returns the telemetry of the stream.
@@ -720,7 +795,10 @@ fn method_over_the_link(
                 }
                 s.send(&HostMessage::SelectMethod(id))?
             }
-            15 => s.send(&HostMessage::Enable)?,
+            // After the stand-in of the winches (QEMU) has followed the
+            // new session's first pose (5 ms lag): Enable is refused while
+            // a cable is off the setpoint by more than the length check.
+            60 => s.send(&HostMessage::Enable)?,
             _ => {}
         }
         thread::sleep(PACE);

@@ -150,9 +150,10 @@ fn judge_demo(run: &Run) -> [Result<String, String>; 7] {
 fn judge_report(r: &Report, code: Option<i32>) -> [Result<String, String>; 7] {
     let crashed = matches!(code, None | Some(1) | Some(exit::PANIC) | Some(exit::HARDFAULT));
     let s = r.step;
+    let (e, fk) = (r.estimator, r.forward);
     let figures = format!(
-        "min {} median {} max {} instructions over {} cycles, overruns {}",
-        s.min, s.median, s.max, r.cycles, r.overruns
+        "min {} median {} max {} instructions over {} cycles, overruns {}; of it the estimator (one Gauss-Newton step of the forward kinematics) min {} median {} max {}; tension-core's forward kinematics replayed (warm, not in the step) median {} max {}",
+        s.min, s.median, s.max, r.cycles, r.overruns, e.min, e.median, e.max, fk.median, fk.max
     );
     let verdict_ok = code == Some(exit::PASS) && r.exit_code == exit::PASS;
     let budget = if s.max <= BUDGET {
@@ -479,6 +480,8 @@ mod tests {
             exit_code: exit::PASS,
             method_worst: tension_core::Method::ALL.map(methods::stated_worst),
             receive_worst: 44_000,
+            estimator: Spread { min: 1_000, median: 1_200, max: 1_500 },
+            forward: Spread { min: 3_000, median: 3_500, max: 90_000 },
         }
     }
 

@@ -31,3 +31,46 @@ pub fn setpoint_range() -> SetpointRange {
 pub fn torque_max() -> f32 {
     suspended8().winch().expect("suspended-8 has a winch").torque_max
 }
+
+/// Encoder readings of cable lengths `lengths` (count 0 at length 0).
+#[allow(dead_code)]
+pub fn readings_of(control: &cdpr_control::ControlLoop, lengths: &[f32]) -> [cdpr_control::WinchReading; 8] {
+    let mut out = [cdpr_control::WinchReading::default(); 8];
+    for (i, r) in out.iter_mut().enumerate() {
+        r.counts = control.encoder().counts_of(i, lengths[i], 0).expect("a cable's length");
+    }
+    out
+}
+
+/// The readings of an ideal plant that is at the newest good setpoint
+/// (it stays where it was when there is none): what the tests that are
+/// not about the estimator drive the loop with.
+#[allow(dead_code)]
+pub fn follow(control: &cdpr_control::ControlLoop, readings: &mut [cdpr_control::WinchReading; 8]) {
+    if let Some(s) = control.newest_setpoint() {
+        if let Ok(c) = control.controller().robot().cables(&s.pose) {
+            *readings = readings_of(control, c.lengths.as_slice());
+        }
+    }
+}
+
+/// Homes `control` at `pose` through the link: `Home`, then one step
+/// reading `readings` (the plant at `pose`), which must leave it homed.
+#[allow(dead_code)]
+pub fn home<D: cdpr_control::WinchDrives>(
+    control: &mut cdpr_control::ControlLoop,
+    drives: &mut D,
+    pose: [f32; 6],
+) {
+    control.receive(cdpr_control::protocol::HostMessage::Home(pose));
+    control.step(&cdpr_control::NoClock, drives, false);
+    assert!(control.homed(), "not homed at {pose:?}");
+}
+
+/// The ideal plant's readings at `pose`.
+#[allow(dead_code)]
+pub fn readings_at(control: &cdpr_control::ControlLoop, pose: [f32; 6]) -> [cdpr_control::WinchReading; 8] {
+    let c =
+        control.controller().robot().cables(&cdpr_control::setpoint::Pose6::from(pose)).expect("kinematics");
+    readings_of(control, c.lengths.as_slice())
+}

@@ -4,8 +4,10 @@
 //! Every millisecond ([`firmware::periodic::Releases`]) the `control` task
 //! takes up to `cdpr_control::RECEIVE_BUDGET` of the bytes USART1 received, lets [`cdpr_control::ControlLoop`]
 //! act on the frames (setpoints, enable, disable, clear fault, telemetry
-//! rate, method), solves the newest setpoint (kinematics, wrench with the
-//! d'Alembert terms, warm-started barycenter, motor torques), lets the
+//! rate, method, home, feedback scheme), reads the winch encoders, solves
+//! the newest setpoint (kinematics, wrench with the d'Alembert terms, the
+//! pose estimate and the selected feedback, warm-started barycenter, motor
+//! torques), lets the
 //! safety state machine decide what reaches the winches, writes the drives
 //! and queues telemetry, which a low-priority task writes to the line.
 //! TIM2 times every step; a late cycle counts as an overrun, which the
@@ -16,7 +18,6 @@
 
 #[rtic::app(device = stm32f4::stm32f405, dispatchers = [SPI1, SPI2])]
 mod app {
-    use cdpr_control::controller::Wrench;
     use cdpr_control::TickCounter;
     use cdpr_protocol::{encode, DeviceMessage, MAX_FRAME};
     use firmware::periodic::Releases;
@@ -41,7 +42,10 @@ mod app {
         tx_queue: Queue<u8, TX_QUEUE> = Queue::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        let (board, rest) = Board::start(cx.device);
+        let (mut board, rest) = Board::start(cx.device);
+        // QEMU: the encoders' stand-in rests where the demo trajectory
+        // starts (the pose the end-to-end test homes with).
+        board.place_stand_in(cdpr_demo::trajectory::setpoint(0).pose.into());
         let (rx_in, rx) = cx.local.rx_queue.split();
         let (tx, tx_out) = cx.local.tx_queue.split();
         serial::init(rest.usart1, &rest.rcc);
@@ -93,8 +97,11 @@ mod app {
             // At most RECEIVE_BUDGET bytes, whatever arrives; the rest waits.
             control.receive_bytes(|| rx.dequeue());
             control.record_dropped(serial::dropped());
-            let report = control.step(&*clock, drives, &Wrench::zeros(), overrun);
+            let report = control.step(&*clock, drives, overrun);
             control.record_cost(clock::ticks_to_units(clock.since(start)));
+            // The encoders' stand-in (QEMU), outside the measured step.
+            let tracked = control.last_feasible_setpoint().map(|s| s.pose);
+            drives.advance(control.controller().robot(), tracked.as_ref());
             if let Some(telemetry) = report.telemetry {
                 if let Ok(n) = encode(&DeviceMessage::Telemetry(telemetry), &mut frame) {
                     if serial::queue_frame(tx, &frame[..n]) {
