@@ -11,7 +11,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use crate::{
-    scalar::{all_finite, finite, greater},
+    scalar::{all_finite, finite, greater, max, min},
     tolerance, Error, Real, TensionLimits,
 };
 
@@ -119,10 +119,18 @@ impl<T: Real> Winch<T> {
             return Err(Error::NonFinite);
         }
         let raw = tension * self.drum_radius / (self.gear_ratio * self.efficiency);
-        let torque = raw.max(-self.torque_max).min(self.torque_max);
+        // Plain comparisons (`f32::max`/`min` are libm calls on the M4F);
+        // `raw` is finite here.
+        let torque = min(max(raw, -self.torque_max), self.torque_max);
         Ok(MotorTorque { torque, saturated: torque != raw })
     }
 }
+
+/// `((sin a, cos a), (sin b, cos b))` of a spatial pose's first two angles.
+type SinCos2<T> = ((T, T), (T, T));
+
+/// A pose's position, rotation and [`SinCos2`].
+type Frame<T> = (Vector3<T>, Matrix3<T>, SinCos2<T>);
 
 /// Platform velocity and acceleration for the d'Alembert inertial wrench.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -162,12 +170,26 @@ impl<T: Real> Motion<T> {
         if !all_finite(pose.iter().chain(velocity.iter()).chain(acceleration.iter()).copied()) {
             return Err(Error::NonFinite);
         }
+        let angles = match kind {
+            RobotKind::Spatial6 => (pose[3].sin_cos_native(), pose[4].sin_cos_native()),
+            _ => ((T::zero(), T::one()), (T::zero(), T::one())), // not read
+        };
+        Ok(Self::from_derivatives(kind, angles, velocity, acceleration))
+    }
+
+    /// [`Self::from_pose_derivatives`] with the sines and cosines of the
+    /// spatial pose's first two angles already computed (not read for the
+    /// planar kinds), inputs already checked.
+    fn from_derivatives<const N: usize>(
+        kind: RobotKind,
+        ((sa, ca), (sb, cb)): SinCos2<T>,
+        velocity: &Pose<T, N>,
+        acceleration: &Pose<T, N>,
+    ) -> Self {
         let z = T::zero();
-        Ok(match kind {
+        match kind {
             RobotKind::Spatial6 => {
-                let (a, b) = (pose[3], pose[4]);
                 let (da, db, dc) = (velocity[3], velocity[4], velocity[5]);
-                let ((sa, ca), (sb, cb)) = (a.sin_cos_native(), b.sin_cos_native());
                 let j1 = Vector3::new(T::one(), z, z);
                 let j2 = Vector3::new(z, ca, sa);
                 let j3 = Vector3::new(sb, -sa * cb, ca * cb);
@@ -193,7 +215,7 @@ impl<T: Real> Motion<T> {
                 angular_velocity: Vector3::zeros(),
                 angular_acceleration: Vector3::zeros(),
             },
-        })
+        }
     }
 }
 
@@ -307,19 +329,39 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
 
     /// Position `p` and rotation `R` of a pose (conventions, "Poses").
     pub fn frame(&self, pose: &Pose<T, N>) -> Result<(Vector3<T>, Matrix3<T>), Error> {
+        self.frame_with_angles(pose).map(|(p, rot, _)| (p, rot))
+    }
+
+    /// [`Self::frame`] and the sines and cosines of the first two angles of
+    /// a spatial pose (for [`Motion`]; not meaningful for the planar kinds).
+    fn frame_with_angles(&self, pose: &Pose<T, N>) -> Result<Frame<T>, Error> {
         if !finite(pose.as_slice()) {
             return Err(Error::NonFinite);
         }
-        let z = T::zero();
+        let (z, one) = (T::zero(), T::one());
+        let unused = ((z, one), (z, one));
         Ok(match self.kind {
             RobotKind::Spatial6 => {
-                let rx = rotation_x(pose[3]);
-                let ry = rotation_y(pose[4]);
-                let rz = rotation_z(pose[5]);
-                (Vector3::new(pose[0], pose[1], pose[2]), rx * ry * rz)
+                let (sa, ca) = pose[3].sin_cos_native();
+                let (sb, cb) = pose[4].sin_cos_native();
+                let (sc, cc) = pose[5].sin_cos_native();
+                // Rx(a) Ry(b) Rz(c), multiplied out.
+                let (sa_sb, ca_sb) = (sa * sb, ca * sb);
+                let rot = Matrix3::new(
+                    cb * cc,
+                    -(cb * sc),
+                    sb,
+                    sa_sb * cc + ca * sc,
+                    ca * cc - sa_sb * sc,
+                    -(sa * cb),
+                    sa * sc - ca_sb * cc,
+                    ca_sb * sc + sa * cc,
+                    ca * cb,
+                );
+                (Vector3::new(pose[0], pose[1], pose[2]), rot, ((sa, ca), (sb, cb)))
             }
-            RobotKind::Planar3 => (Vector3::new(pose[0], pose[1], z), rotation_z(pose[2])),
-            RobotKind::Planar2 => (Vector3::new(pose[0], pose[1], z), Matrix3::identity()),
+            RobotKind::Planar3 => (Vector3::new(pose[0], pose[1], z), rotation_z(pose[2]), unused),
+            RobotKind::Planar2 => (Vector3::new(pose[0], pose[1], z), Matrix3::identity(), unused),
         })
     }
 
@@ -341,7 +383,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
                 v
             }
         };
-        let mut size = p.amax();
+        let mut size = amax3(&p);
         let mut state = CableState {
             lengths: SVector::zeros(),
             directions: [Vector3::zeros(); M],
@@ -353,7 +395,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
                 _ => flatten(rot * self.attachments[i]),
             };
             let anchor = flatten(self.anchors[i]);
-            size = size.max(anchor.amax()).max(rb.amax());
+            size = max(max(size, amax3(&anchor)), amax3(&rb));
             let l = anchor - p - rb;
             let length = l.norm_squared().sqrt_native();
             if !finite(l.as_slice()) || !length.is_finite() {
@@ -495,11 +537,14 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         extra: &SVector<T, N>,
         derivatives: Option<(&Pose<T, N>, &Pose<T, N>)>,
     ) -> Result<(SMatrix<T, N, M>, SVector<T, N>), Error> {
-        let (p, rot) = self.frame(pose)?;
+        let (p, rot, angles) = self.frame_with_angles(pose)?;
         let cables = self.cables_at(&p, &rot)?;
         let motion = match derivatives {
             Some((velocity, acceleration)) => {
-                Some(Motion::from_pose_derivatives(self.kind, pose, velocity, acceleration)?)
+                if !all_finite(velocity.iter().chain(acceleration.iter()).copied()) {
+                    return Err(Error::NonFinite);
+                }
+                Some(Motion::from_derivatives(self.kind, angles, velocity, acceleration))
             }
             None => None,
         };
@@ -518,20 +563,15 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
     }
 }
 
-fn rotation_x<T: Real>(a: T) -> Matrix3<T> {
-    let (s, c) = a.sin_cos_native();
-    let (o, l) = (T::zero(), T::one());
-    Matrix3::new(l, o, o, o, c, -s, o, s, c)
-}
-
-fn rotation_y<T: Real>(a: T) -> Matrix3<T> {
-    let (s, c) = a.sin_cos_native();
-    let (o, l) = (T::zero(), T::one());
-    Matrix3::new(c, o, s, o, l, o, -s, o, c)
-}
-
 fn rotation_z<T: Real>(a: T) -> Matrix3<T> {
     let (s, c) = a.sin_cos_native();
     let (o, l) = (T::zero(), T::one());
     Matrix3::new(c, -s, o, s, c, o, o, o, l)
+}
+
+/// `max_i |v_i|` by plain comparisons (nalgebra's `amax` calls `f32::max`,
+/// a libm call on the M4F).
+#[inline]
+fn amax3<T: Real>(v: &Vector3<T>) -> T {
+    max(max(v.x.abs(), v.y.abs()), v.z.abs())
 }

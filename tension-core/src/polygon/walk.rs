@@ -121,18 +121,26 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         // margin is known).
         let mut prev = None;
         let big = T::max_value()?;
-        // Per cable, the step to the limit the edge approaches and the rate
-        // n_k . d at which it is approached (zero: never reached).
-        let mut steps = [big; M];
+        // Per cable, the slack to the limit the edge approaches (`big`:
+        // never reached) and the signed rate n_k . d at which it is
+        // approached (zero: never reached).
+        let mut slacks = [big; M];
         let mut rates = [T::zero(); M];
         for _ in 0..=2 * M {
             let a_h = self.normal(h);
-            let o = a_h / self.norms[h / 2];
+            let hc = h / 2;
+            let o = a_h / self.norms[hc];
             let d = Vector2::new(-o.y, o.x);
+            // The cables whose lines define `v` (the edge's and the previous
+            // edge's), left out of its margin; none at the first vertex,
+            // whose margin is known.
+            let skip_margin = prev.is_none();
+            let pc = prev.map_or(hc, |p| p / 2);
             // Smallest step to another line along the edge (Eqs. 16-19): per
-            // cable only the limit the direction approaches can be reached.
-            // The same pass gives the margin of `v` (its smallest slack to
-            // the lines of the cables that do not define it).
+            // cable only the limit the direction approaches can be reached,
+            // and never on the edge's own cable (its lines are parallel to
+            // the edge). The same pass gives the margin of `v` (its smallest
+            // slack to the lines of the cables that do not define it).
             let mut alpha_min = big;
             let mut any = false;
             let mut margin = big;
@@ -143,31 +151,33 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 let nv = self.rows[k].dot(&v);
                 let nd = self.rows[k].dot(&d);
                 let (s_lo, s_hi) = (nv - self.lower[k], self.upper[k] - nv);
-                if let Some(p) = prev {
-                    if k != h / 2 && k != p / 2 {
-                        margin = min(margin, min(s_lo, s_hi) / self.norms[k]);
-                    }
+                let own = k == hc;
+                if !(own || k == pc) {
+                    margin = min(margin, min(s_lo, s_hi) / self.norms[k]);
                 }
                 let dtol = self.ptol[k];
                 // The signed rate: positive towards the upper limit.
-                let (alpha, rate) = if nd > dtol && 2 * k + 1 != h {
-                    (s_hi / nd, nd)
-                } else if -nd > dtol && 2 * k != h {
-                    (s_lo / -nd, nd)
+                let slack = if own {
+                    big
+                } else if nd > dtol {
+                    s_hi
+                } else if -nd > dtol {
+                    s_lo
                 } else {
+                    big
+                };
+                slacks[k] = slack;
+                if slack == big {
                     rates[k] = T::zero();
                     continue;
-                };
-                any = true;
-                steps[k] = alpha;
-                rates[k] = rate;
-                alpha_min = min(alpha_min, alpha);
-            }
-            if let Some(p) = prev {
-                if margin > best_margin {
-                    best_margin = margin;
-                    best_lines = (p as u8, h as u8);
                 }
+                any = true;
+                rates[k] = nd;
+                alpha_min = min(alpha_min, slack / nd.abs());
+            }
+            if !skip_margin && margin > best_margin {
+                best_margin = margin;
+                best_lines = (pc_line(prev), h as u8);
             }
             if !any {
                 return None;
@@ -176,18 +186,15 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // Among lines reached there (ties: concurrent lines, Sect. 2.3),
             // the edge-supporting one bounds the normal cone: the largest
             // counter-clockwise angle from the current normal. A line's slack
-            // at the step is `(step_k - alpha) |n_k . d|`.
+            // at the step is `slack_k - alpha |n_k . d|` (`big` for a line
+            // never reached).
             let mut next = None;
             let mut best_cos = big;
             let mut first_edge_cos = None;
             for k in 0..M {
                 let rate = rates[k];
-                if rate == T::zero() {
-                    continue;
-                }
-                let (g, sign, speed) =
-                    if rate > T::zero() { (2 * k + 1, T::one(), rate) } else { (2 * k, -T::one(), -rate) };
-                if (steps[k] - alpha) * speed <= self.tol {
+                if slacks[k] - alpha * rate.abs() <= self.tol {
+                    let (g, sign) = if rate > T::zero() { (2 * k + 1, T::one()) } else { (2 * k, -T::one()) };
                     let cos = sign * self.rows[k].dot(&o) / self.norms[k];
                     if cos < best_cos {
                         best_cos = cos;
@@ -222,4 +229,11 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         }
         None
     }
+}
+
+/// The previous edge's line as stored in a vertex (`0` when none: only
+/// read once there is one).
+#[inline]
+fn pc_line(prev: Option<usize>) -> u8 {
+    prev.map_or(0, |p| p as u8)
 }
