@@ -9,8 +9,8 @@
 //! worst cases `cargo xtask run` measured on the board (QEMU, `-icount
 //! shift=3`) over the demo's 4600 poses (rest at the centre, jumps between
 //! poses, the trajectory with its infeasible stretch), rounded up by 2 to 5 %
-//! (the barycenter's, the solver in the loop, measured 14 474; min-2-norm
-//! 18 055; optimally-safe 192 261); `cargo xtask test` fails this table
+//! (the barycenter's, the solver in the loop, measured 12 630; min-2-norm
+//! 16 288; optimally-safe 194 181); `cargo xtask test` fails this table
 //! ([`exceeded`]) when a measured worst exceeds its stated one.
 
 use tension_core::Method;
@@ -27,17 +27,18 @@ pub struct MethodCost {
 }
 
 /// The control step without the solver, worst case: the setpoint's checks,
-/// kinematics, torques, state machine and drives (the phases' maxima in
-/// `cargo xtask run`'s step breakdown: 1 096 + 2 623 + 336 + 763 = 4 818),
-/// rounded up. Not yet updated for the closed loop of issue 13 (encoders,
-/// estimator, feedback): its maxima now sum to about 7 030 (691 + 145 +
-/// 1 910 + 1 969 + 576 + 559 + 1 179), with which the barycenter's stated
-/// 15 000 would not fit the budget (BENCHMARKS.md: open).
-pub const STEP_REST: u32 = 5_000;
+/// reading the encoders, kinematics, the pose estimator, the feedback,
+/// torques, state machine and drives (the phases' maxima in `cargo xtask
+/// run`'s step breakdown with the closed loop of issue 13: 691 + 145 +
+/// 1 911 + 1 969 + 576 + 441 + 1 113 = 6 846), rounded up. The homing
+/// cycle's encoder phase (one inverse kinematics, 2 502) happens once, in
+/// Disabled; the measured worst step, that cycle included, is what the
+/// test command holds to the budget.
+pub const STEP_REST: u32 = 7_000;
 
 /// Every method's stated worst solve, in `Method::ALL` order.
 pub const COSTS: [MethodCost; 10] = [
-    MethodCost { method: Method::Barycenter, worst: 15_000 },
+    MethodCost { method: Method::Barycenter, worst: 13_000 },
     MethodCost { method: Method::BarycenterBrute, worst: 40_000 },
     MethodCost { method: Method::AnalyticCentre, worst: 76_000 },
     MethodCost { method: Method::ClosedForm, worst: 3_800 },
@@ -101,6 +102,6 @@ mod tests {
             assert_eq!(offered().contains(method), is_offered(method));
         }
         assert!(!offered().contains(Method::OptimallySafe));
-        assert!(exceeded(Method::Barycenter, 15_001) && !exceeded(Method::Barycenter, 15_000));
+        assert!(exceeded(Method::Barycenter, 13_001) && !exceeded(Method::Barycenter, 13_000));
     }
 }
