@@ -1,6 +1,6 @@
 //! Closed-loop runs: the firmware's control loop (`cdpr_control::ControlLoop`,
 //! fed byte by byte through the simulated serial link) with its task-space
-//! PID on the pose it estimates from the winch encoders, against the
+//! or joint-space PID on what it reads from the winch encoders, against the
 //! simulated robot, scripted by a [`Scenario`].
 //!
 //! Every 1 ms cycle, in this order (the firmware's order):
