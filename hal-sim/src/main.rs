@@ -84,9 +84,11 @@ fn main() -> ExitCode {
         };
         println!("{}: {}", s.name, s.description);
         println!(
-            "  up to the event: position error max {:.3} mm, rotation error max {:.4} deg, tensions {:.2}..{:.2} N (commanded {:.2}..{:.2} N)",
+            "  up to the event: position error max {:.3} mm, rotation error max {:.4} deg, estimate off the true position by at most {:.3} mm, residual at most {:.3} mm, tensions {:.2}..{:.2} N (commanded {:.2}..{:.2} N)",
             f.position_error * 1e3,
             f.rotation_error.to_degrees(),
+            f.estimate_error * 1e3,
+            f.residual * 1e3,
             f.tension_min,
             f.tension_max,
             f.commanded.0,

@@ -13,9 +13,14 @@ use crate::scenario::{Outcome, Row};
 
 /// The CSV table: `time,state,reason,brakes,locked,x,y,z,rx,ry,rz,ex,ey,ez,
 /// erx,ery,erz,position_error_mm,rotation_error_deg,speed,t1..t8,
-/// cmd_t1..cmd_t8,tau1..tau8,fb_fx,fb_fy,fb_fz,fb_mx,fb_my,fb_mz` (pose in the conventions' order, errors
-/// `reference - pose` in the base frame, tensions the true ones, `cmd_`
-/// the controller's, empty where it had none; `fb_` the PID's wrench).
+/// cmd_t1..cmd_t8,tau1..tau8,fb_fx,fb_fy,fb_fz,fb_mx,fb_my,fb_mz,
+/// est_x..est_rz,est_error_mm,residual_mm,unreadable_drive` (pose in the
+/// conventions' order, errors `reference - pose` in the base frame,
+/// tensions the true ones, `cmd_` the controller's, empty where it had
+/// none; `fb_` the PID's wrench; `est_` the loop's pose estimate, its
+/// position error against the true pose and the estimator's worst cable
+/// residual, empty where there was no estimate; the drive the loop could
+/// not read, empty if none).
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
         "time,state,reason,brakes,locked,x,y,z,rx,ry,rz,ex,ey,ez,erx,ery,erz,position_error_mm,rotation_error_deg,speed",
@@ -25,7 +30,7 @@ pub fn csv(rows: &[Row]) -> String {
             let _ = write!(s, ",{prefix}{i}");
         }
     }
-    s.push_str(",fb_fx,fb_fy,fb_fz,fb_mx,fb_my,fb_mz\n");
+    s.push_str(",fb_fx,fb_fy,fb_fz,fb_mx,fb_my,fb_mz,est_x,est_y,est_z,est_rx,est_ry,est_rz,est_error_mm,residual_mm,unreadable_drive\n");
     for r in rows {
         let _ = write!(
             s,
@@ -62,6 +67,28 @@ pub fn csv(rows: &[Row]) -> String {
         for v in &r.feedback {
             let _ = write!(s, ",{v:.4}");
         }
+        for v in &r.estimate {
+            if v.is_finite() {
+                let _ = write!(s, ",{v:.7}");
+            } else {
+                s.push(',');
+            }
+        }
+        let e = r.estimate_error();
+        let e = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        for v in [e * 1e3, f64::from(r.residual) * 1e3] {
+            if v.is_finite() {
+                let _ = write!(s, ",{v:.4}");
+            } else {
+                s.push(',');
+            }
+        }
+        match r.unreadable_drive {
+            Some(d) => {
+                let _ = write!(s, ",{d}");
+            }
+            None => s.push(','),
+        }
         s.push('\n');
     }
     s
@@ -87,10 +114,11 @@ fn not_enabled(rows: &[Row]) -> Vec<(f64, f64)> {
     bands
 }
 
-/// The three panels: position error (mm, per axis), rotation error (deg,
-/// per axis) and the true tensions (N) with the limits; grey-red bands
-/// where the state is not Enabled.
-pub fn plots(outcome: &Outcome) -> [LinePlot; 3] {
+/// The four panels: position error (mm, per axis), rotation error (deg,
+/// per axis), the true tensions (N) with the limits, and the estimate's
+/// position error against the true pose (mm, per axis) with the
+/// estimator's residual; grey-red bands where the state is not Enabled.
+pub fn plots(outcome: &Outcome) -> [LinePlot; 4] {
     // The robot file's (uniform) tension limits, drawn as lines.
     let limits: Vec<(f64, &str)> = crate::scenario::load_robot()
         .map(|r| vec![(r.limits().min()[0], "t_min"), (r.limits().max()[0], "t_max")])
@@ -140,11 +168,36 @@ pub fn plots(outcome: &Outcome) -> [LinePlot; 3] {
             })
             .collect(),
         hlines: limits.iter().map(|&(t, name)| (t, name.into())).collect(),
+        bands: bands.clone(),
+        band_label: band_label.clone(),
+        include_zero: true,
+    };
+    let finite = |v: f64| v.is_finite().then_some(v);
+    let mut series: Vec<Series> = (0..3)
+        .map(|k| {
+            Series::from_samples(
+                ["x", "y", "z"][k],
+                PALETTE[k % 3],
+                rows.iter().map(|r| (r.t, finite(r.estimate_error()[k] * 1e3))),
+            )
+        })
+        .collect();
+    series.push(Series::from_samples(
+        "residual",
+        PALETTE[3],
+        rows.iter().map(|r| (r.t, finite(f64::from(r.residual) * 1e3))),
+    ));
+    let estimate = LinePlot {
+        title: format!("{title}: estimated - true position, and the estimator's residual"),
+        x_label: "time [s]".into(),
+        y_label: "[mm]".into(),
+        series,
         bands,
         band_label,
         include_zero: true,
+        ..LinePlot::default()
     };
-    [position, rotation, tensions]
+    [position, rotation, tensions, estimate]
 }
 
 /// Writes `DIR/NAME.csv` and `DIR/NAME.png`; returns their paths.
@@ -154,8 +207,8 @@ pub fn write(outcome: &Outcome, dir: &Path) -> Result<(PathBuf, PathBuf), String
     let csv_path = dir.join(format!("{name}.csv"));
     std::fs::write(&csv_path, csv(&outcome.rows)).map_err(|e| format!("{}: {e}", csv_path.display()))?;
     let panels = plots(outcome);
-    let png = render_png((1100, 1200), |root| {
-        for (area, plot) in root.split_evenly((3, 1)).into_iter().zip(&panels) {
+    let png = render_png((1100, 1600), |root| {
+        for (area, plot) in root.split_evenly((4, 1)).into_iter().zip(&panels) {
             draw_line_plot(area, plot)?;
         }
         Ok(())
@@ -180,6 +233,11 @@ pub struct Figures {
     pub tension_max: f64,
     /// Smallest and largest commanded tension over the same window, N.
     pub commanded: (f32, f32),
+    /// Largest distance of the estimated position from the true one over
+    /// the same window, m (cycles with an estimate).
+    pub estimate_error: f64,
+    /// Largest estimator residual over the same window, m.
+    pub residual: f64,
     /// From the event on: largest distance of the platform origin from
     /// where it was at the event, m.
     pub displacement: f64,
@@ -216,6 +274,14 @@ pub fn figures(outcome: &Outcome, settle: f64) -> Figures {
         }
         for &t in r.commanded.iter().filter(|t| t.is_finite()) {
             f.commanded = (f.commanded.0.min(t), f.commanded.1.max(t));
+        }
+        let e = r.estimate_error();
+        let e = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        if e.is_finite() {
+            f.estimate_error = f.estimate_error.max(e);
+        }
+        if r.residual.is_finite() {
+            f.residual = f.residual.max(f64::from(r.residual));
         }
     }
     f.fault_at = outcome.rows.iter().find(|r| r.state == State::Fault).map(|r| r.t);

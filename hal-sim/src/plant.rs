@@ -90,6 +90,12 @@ pub struct PlantFaults {
     /// `report` it flags a command beyond that as an error (the amplifier's
     /// current-limit output), otherwise it limits silently.
     pub derate: Option<Derate>,
+    /// From time `t`, encoder `i` stops counting: its count and speed
+    /// stay what they were at the first read from `t` on.
+    pub encoder_stuck: Option<(usize, f64)>,
+    /// From time `t`, drive `i` cannot be read (`read` returns
+    /// `DriveError::Unreadable(i)`).
+    pub unreadable: Option<(usize, f64)>,
 }
 
 /// A drive that can deliver less torque than commanded.
@@ -112,11 +118,28 @@ pub struct Mismatch {
     pub mass_factor: f64,
     /// Added to the file's centre of mass, platform frame, m.
     pub com_offset: [f64; 3],
+    /// Added to each of the file's base anchors `a_i`, base frame, m
+    /// (geometric error: the frame as built is not the file's).
+    pub anchor_offsets: [[f64; 3]; CABLES],
 }
 
 impl Mismatch {
     /// None: the plant is the robot file.
-    pub const NONE: Self = Self { mass_factor: 1.0, com_offset: [0.0; 3] };
+    pub const NONE: Self =
+        Self { mass_factor: 1.0, com_offset: [0.0; 3], anchor_offsets: [[0.0; 3]; CABLES] };
+}
+
+/// A fixed pattern of anchor errors of length `magnitude` (m): anchor `i`
+/// moves along the unit vector of `(cos(2.4 i + 0.3), sin(2.4 i + 0.3),
+/// +-0.6)` (`+` for even `i`), so the errors point every way and do not
+/// add up to a rigid shift of the frame.
+pub fn anchor_offsets(magnitude: f64) -> [[f64; 3]; CABLES] {
+    core::array::from_fn(|i| {
+        let a = 2.4 * i as f64 + 0.3;
+        let z = if i % 2 == 0 { 0.6 } else { -0.6 };
+        let v = Vector3::new(a.cos(), a.sin(), z).normalize() * magnitude;
+        [v.x, v.y, v.z]
+    })
 }
 
 /// The drive error the plant reports.
@@ -126,6 +149,8 @@ pub enum DriveError {
     CurrentLimit(usize),
     /// A non-finite torque command for drive `i`.
     NonFinite(usize),
+    /// Drive `i`'s encoder could not be read.
+    Unreadable(usize),
 }
 
 /// The integrated state.
@@ -198,6 +223,8 @@ pub struct Plant {
     brake_since: f64,
     locked: bool,
     encoder: Encoders,
+    /// The stuck encoder's frozen reading, once it stopped.
+    stuck: Option<WinchReading>,
 }
 
 /// The motor encoders' counting: counts per motor turn, sign per cable
@@ -241,8 +268,18 @@ impl Plant {
         let mut platform = *robot.platform();
         platform.mass *= mismatch.mass_factor;
         platform.com += Vector3::from(mismatch.com_offset);
-        let mut true_robot = robot.clone();
-        true_robot.set_platform(platform)?;
+        let mut anchors = *robot.anchors();
+        for (a, d) in anchors.iter_mut().zip(&mismatch.anchor_offsets) {
+            *a += Vector3::from(*d);
+        }
+        let true_robot = Robot::new(
+            robot.kind(),
+            anchors,
+            *robot.attachments(),
+            *robot.limits(),
+            platform,
+            robot.winch().copied(),
+        )?;
         let pose_v = SVector::<f64, 6>::from(pose);
         let (w, f) = true_robot.wrench_problem(&pose_v, &SVector::zeros(), None)?;
         let tensions =
@@ -288,6 +325,7 @@ impl Plant {
                 // wrapping arithmetic is exercised.
                 offsets: core::array::from_fn(|i| (i as i32 - 4).wrapping_mul(0x1234_5677)),
             },
+            stuck: None,
         })
     }
 
@@ -488,7 +526,9 @@ impl WinchDrives for Plant {
     type Error = DriveError;
 
     /// The paid-out length in counts (rounded, wrapping 32-bit) and the
-    /// motor speed in counts per second; never fails.
+    /// motor speed in counts per second; fails only with an injected
+    /// unreadable drive (the other readings are still written), and a
+    /// stuck encoder repeats its reading.
     fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), DriveError> {
         let e = &self.encoder;
         let count = 2.0 * core::f64::consts::PI * self.winch.drum_radius
@@ -500,7 +540,24 @@ impl WinchDrives for Plant {
             r.counts = e.offsets[i].wrapping_add(counts as i32);
             r.counts_per_second = (s * self.state.rate[i] / count).round() as i32;
         }
-        Ok(())
+        if let Some((i, at)) = self.faults.encoder_stuck {
+            if self.time >= at - 1e-12 {
+                let frozen = *self
+                    .stuck
+                    .get_or_insert(WinchReading { counts: readings[i].counts, counts_per_second: 0 });
+                readings[i] = frozen;
+            }
+        }
+        match self.faults.unreadable {
+            Some((i, at)) if self.time >= at - 1e-12 => Err(DriveError::Unreadable(i)),
+            _ => Ok(()),
+        }
+    }
+
+    fn failed_drive(&self, error: &DriveError) -> Option<usize> {
+        match *error {
+            DriveError::Unreadable(i) | DriveError::CurrentLimit(i) | DriveError::NonFinite(i) => Some(i),
+        }
     }
 
     fn apply(&mut self, torques: &[f32; CABLES]) -> Result<(), DriveError> {

@@ -1,6 +1,6 @@
 //! Closed-loop runs: the firmware's control loop (`cdpr_control::ControlLoop`,
 //! fed byte by byte through the simulated serial link) with its task-space
-//! PID on the pose it estimates from the winch encoders, against the
+//! or joint-space PID on what it reads from the winch encoders, against the
 //! simulated robot, scripted by a [`Scenario`].
 //!
 //! Every 1 ms cycle, in this order (the firmware's order):
@@ -131,11 +131,29 @@ pub struct Scenario {
     pub event: Option<f64>,
     /// The feedback scheme the host selects (`SelectFeedback`).
     pub scheme: Scheme,
+    /// Where the platform really starts, relative to where the host
+    /// believes it is (the path's start, which it homes at): zero but for
+    /// a wrong homing. Added to the pose components (m, rad).
+    pub start_error: [f64; 6],
 }
 
-/// The payload error of every scenario: 2 % heavier than the robot file,
-/// centre of mass 2-3 mm off.
-pub const MISMATCH: Mismatch = Mismatch { mass_factor: 1.02, com_offset: [0.002, -0.002, 0.003] };
+/// The anchor error of every scenario, m: each of the plant's anchors is
+/// this far from the robot file's (`plant::anchor_offsets`).
+pub const ANCHOR_ERROR: f64 = 0.002;
+
+/// The model error of every scenario: the payload 2 % heavier than the
+/// robot file, its centre of mass 2-3 mm off, and every anchor
+/// [`ANCHOR_ERROR`] off in a fixed pattern (`plant::anchor_offsets`).
+pub fn mismatch() -> Mismatch {
+    Mismatch {
+        mass_factor: 1.02,
+        com_offset: [0.002, -0.002, 0.003],
+        anchor_offsets: crate::plant::anchor_offsets(ANCHOR_ERROR),
+    }
+}
+
+/// The suffix of the joint-space variant of each scenario's name.
+pub const JOINT_SUFFIX: &str = "-joint";
 
 /// Static-hold poses of suspended-8 (conventions: pose order).
 pub const HOLD_POSES: [(&str, [f64; 6]); 4] = [
@@ -160,21 +178,46 @@ impl Scenario {
             path,
             enable_at: 0.05,
             stream_until: None,
-            mismatch: MISMATCH,
+            mismatch: mismatch(),
             disturbances: Vec::new(),
             faults: PlantFaults::default(),
             event: None,
-            // The articular scheme unless a scenario says otherwise: its
-            // tension changes are limited to the tension range instead of
-            // making the wrench infeasible (the task-space wrench does that
-            // at the top of the tracking loop, where the tensions are near
-            // t_min).
-            scheme: Scheme::JointSpace,
+            // `all` adds the joint-space variant of each.
+            scheme: Scheme::TaskSpace,
+            start_error: [0.0; 6],
         }
     }
 
-    /// Every scenario: the four static holds, the tracking loop and the five faults.
+    /// The scheme's name suffix: `""` (task space) or [`JOINT_SUFFIX`].
+    pub fn suffix(scheme: Scheme) -> &'static str {
+        if scheme == Scheme::JointSpace {
+            JOINT_SUFFIX
+        } else {
+            ""
+        }
+    }
+
+    /// This scenario with `scheme`, named `NAME` (task space) or `NAME-joint`.
+    pub fn with_scheme(&self, scheme: Scheme) -> Self {
+        let base = self.name.strip_suffix(JOINT_SUFFIX).unwrap_or(&self.name);
+        Self { name: format!("{base}{}", Self::suffix(scheme)), scheme, ..self.clone() }
+    }
+
+    /// Every scenario, each with the task-space PID (`NAME`) and with the
+    /// joint-space PID (`NAME-joint`).
     pub fn all() -> Vec<Scenario> {
+        let mut out = Vec::new();
+        for s in Self::task_space() {
+            let joint = s.with_scheme(Scheme::JointSpace);
+            out.push(s);
+            out.push(joint);
+        }
+        out
+    }
+
+    /// The four static holds, the tracking loop, the faults and the
+    /// homing errors, with the task-space PID.
+    fn task_space() -> Vec<Scenario> {
         let mut out = Vec::new();
         for (name, pose) in HOLD_POSES {
             let mut s = Self::base(
@@ -183,8 +226,6 @@ impl Scenario {
                 10.05,
                 Path::Hold(pose),
             );
-            // The static holds run the task-space PID on the estimated pose.
-            s.scheme = Scheme::TaskSpace;
             s.disturbances.push(Disturbance {
                 start: 3.0,
                 end: 6.0,
@@ -249,7 +290,55 @@ impl Scenario {
         s.stream_until = Some(stop);
         s.event = Some(stop);
         out.push(s);
+
+        let stuck = 2.0;
+        let mut s = Self::base(
+            "encoder-stuck",
+            "encoder 1 stops counting at 2 s, mid-loop (the platform at 0.57 m/s)",
+            3.0,
+            TRACK,
+        );
+        s.faults.encoder_stuck = Some((0, stuck));
+        s.event = Some(stuck);
+        out.push(s);
+
+        let mut s = Self::base(
+            "wrong-homing",
+            "the host homes (and starts its loop) 20 mm off the true pose, along x",
+            8.5,
+            TRACK,
+        );
+        s.start_error = [0.02, 0.0, 0.0, 0.0, 0.0, 0.0];
+        out.push(s);
+
+        let mut s = Self::base(
+            "wrong-homing-rotation",
+            "the host homes (and starts its loop) 0.05 rad off the true pose, about z",
+            8.5,
+            TRACK,
+        );
+        s.start_error = [0.0, 0.0, 0.0, 0.0, 0.0, 0.05];
+        out.push(s);
+
+        let mut s = Self::base(
+            "drive-unreadable",
+            "from 1 s drive 5 cannot be read, while holding",
+            2.0,
+            Path::Hold(FAULT_POSE),
+        );
+        s.faults.unreadable = Some((4, event));
+        s.event = Some(event);
+        out.push(s);
         out
+    }
+
+    /// Where the platform really starts (`path.start() + start_error`).
+    pub fn true_start(&self) -> [f64; 6] {
+        let mut p = self.path.start();
+        for (a, e) in p.iter_mut().zip(self.start_error) {
+            *a += e;
+        }
+        p
     }
 
     /// The scenario called `name`.
@@ -351,8 +440,13 @@ pub struct Row {
     /// The PID's wrench (what the cables add to the feed-forward; base
     /// frame, about the platform origin), N and N m.
     pub feedback: [f32; 6],
-    /// The control loop's pose estimate this cycle (NaN when none).
+    /// The control loop's pose estimate this cycle (NaN when none; from
+    /// its `StepReport`, recorded only, never fed back).
     pub estimate: [f32; 6],
+    /// The estimator's worst cable residual this cycle, m (NaN when none).
+    pub residual: f32,
+    /// The drive the loop could not read this cycle.
+    pub unreadable_drive: Option<u8>,
 }
 
 impl Row {
@@ -364,6 +458,11 @@ impl Row {
     /// Rotation error angle, rad.
     pub fn rotation_error(&self) -> f64 {
         Vector3::new(self.error[3], self.error[4], self.error[5]).norm().min(1.0).asin()
+    }
+
+    /// Position of the estimate less the true position, m (NaN when no estimate).
+    pub fn estimate_error(&self) -> [f64; 3] {
+        core::array::from_fn(|k| f64::from(self.estimate[k]) - self.pose[k])
     }
 }
 
@@ -446,7 +545,7 @@ fn load_encoders() -> Result<(EncoderScale, [i8; CABLES], u32), String> {
 pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let robot = load_robot()?;
     let mut plant =
-        Plant::new(robot, config.winch, config.cable, scenario.mismatch, scenario.path.start(), config.dt)
+        Plant::new(robot, config.winch, config.cable, scenario.mismatch, scenario.true_start(), config.dt)
             .map_err(|e| format!("start pose: {}", e.status()))?;
     let (scale, signs, cpr) = load_encoders()?;
     plant.set_encoders(Encoders { counts_per_revolution: cpr, signs, ..plant.encoders() });
@@ -479,7 +578,8 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
         host.send(link, &m).map_err(|e| format!("encode: {e:?}"))
     };
     send(&host, &mut link, HostMessage::TelemetryPeriod(10))?;
-    // The platform rests at the path's start on its brakes: home there.
+    // The host believes the platform rests at the path's start on its
+    // brakes (it does, but with a wrong homing): it homes there.
     send(&host, &mut link, HostMessage::SelectFeedback(scenario.scheme.wire_id()))?;
     send(&host, &mut link, HostMessage::Home(scenario.path.start().map(|v| v as f32)))?;
 
@@ -535,6 +635,11 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
                 Some(Ok(e)) => e.pose.into(),
                 _ => [f32::NAN; 6],
             },
+            residual: match report.estimate {
+                Some(Ok(e)) => e.residual,
+                _ => f32::NAN,
+            },
+            unreadable_drive: report.unreadable_drive,
         });
         plant.advance(PERIOD);
         clock.micros += 1000;
