@@ -99,31 +99,12 @@ pub fn run(args: &ForwardArgs) -> Result<ForwardReport, CliError> {
             &format!("missing column `l{}` ({} has {m} cables: l1,...,l{m})", k + 1, args.robot.display()),
         ));
     }
-    let width = raw.header.len();
     let mut table = Vec::with_capacity(raw.rows.len());
     let mut last_time = f64::NEG_INFINITY;
     for row in &raw.rows {
         let line = Some(row.line);
-        if row.fields.len() != width {
-            return Err(CliError::at(
-                path,
-                line,
-                None,
-                &format!("{} fields, the header has {width} ({})", row.fields.len(), raw.header.join(",")),
-            ));
-        }
-        let number = |c: usize| -> Result<f64, CliError> {
-            let text = &row.fields[c];
-            text.parse::<f64>().map_err(|_| {
-                let shown = if text.is_empty() { "empty field" } else { text };
-                CliError::at(
-                    path,
-                    line,
-                    Some((c + 1, raw.header[c].as_str())),
-                    &format!("`{shown}` is not a number"),
-                )
-            })
-        };
+        raw.check_width(row)?;
+        let number = |c: usize| raw.number(row, c);
         let time = match time_col {
             Some(c) => {
                 let t = number(c)?;

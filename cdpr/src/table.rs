@@ -48,6 +48,37 @@ pub struct RawRow {
     pub fields: Vec<String>,
 }
 
+impl RawTable {
+    /// `row` has as many fields as the header (else the one-line error).
+    pub fn check_width(&self, row: &RawRow) -> Result<(), CliError> {
+        let width = self.header.len();
+        if row.fields.len() == width {
+            return Ok(());
+        }
+        Err(CliError::at(
+            &self.path,
+            Some(row.line),
+            None,
+            &format!("{} fields, the header has {width} ({})", row.fields.len(), self.header.join(",")),
+        ))
+    }
+
+    /// Field `c` of `row` as a number (NaN and infinities included), or the
+    /// one-line error naming the field.
+    pub fn number(&self, row: &RawRow, c: usize) -> Result<f64, CliError> {
+        let text = &row.fields[c];
+        text.parse::<f64>().map_err(|_| {
+            let shown = if text.is_empty() { "empty field" } else { text };
+            CliError::at(
+                &self.path,
+                Some(row.line),
+                Some((c + 1, self.header[c].as_str())),
+                &format!("`{shown}` is not a number"),
+            )
+        })
+    }
+}
+
 /// Reads a CSV file. A file that cannot be read is bad input (exit code 2).
 pub fn read_csv(path: &Path) -> Result<RawTable, CliError> {
     let bytes = std::fs::read(path).map_err(|e| CliError::at(path, None, None, &e.to_string()))?;
@@ -211,26 +242,15 @@ pub fn poses_from_raw(raw: &RawTable, kind: RobotKind, time: TimeColumn) -> Resu
             ));
         }
     }
-    let width = raw.header.len();
     let mut rows = Vec::with_capacity(raw.rows.len());
     let mut last_time = f64::NEG_INFINITY;
     for row in &raw.rows {
         let line = Some(row.line);
-        if row.fields.len() != width {
-            return Err(CliError::at(
-                path,
-                line,
-                None,
-                &format!("{} fields, the header has {width} ({})", row.fields.len(), raw.header.join(",")),
-            ));
-        }
+        raw.check_width(row)?;
         let number = |c: usize| -> Result<f64, CliError> {
             let text = &row.fields[c];
             let at = Some((c + 1, raw.header[c].as_str()));
-            let v: f64 = text.parse().map_err(|_| {
-                let shown = if text.is_empty() { "empty field" } else { text };
-                CliError::at(path, line, at, &format!("`{shown}` is not a number"))
-            })?;
+            let v = raw.number(row, c)?;
             if time == TimeColumn::Required && !v.is_finite() {
                 return Err(CliError::at(path, line, at, &format!("`{text}` is not a finite number")));
             }
