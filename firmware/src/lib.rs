@@ -104,13 +104,6 @@ impl Board {
         }
     }
 
-    /// One period of the encoders' stand-in towards the setpoint the loop
-    /// tracks (the last feasible one); outside the measured step.
-    pub fn advance_stand_in(&mut self) {
-        let pose = self.control.last_feasible_setpoint().map(|s| s.pose);
-        self.drives.advance(self.control.controller().robot(), pose.as_ref());
-    }
-
     /// Starts the watchdog (board only); the control loop feeds it every
     /// cycle from now on. Call last in `init`.
     pub fn start_watchdog(iwdg: &IWDG) {
