@@ -55,6 +55,28 @@ pub const DEFAULT_OMEGA: f32 = 2.0 * core::f32::consts::PI * 5.0;
 pub const DEFAULT_FEEDBACK_LIMITS: FeedbackLimits =
     FeedbackLimits { force_max: 20.0, moment_max: 2.0, integral_max: [10.0, 10.0, 10.0, 1.0, 1.0, 1.0] };
 
+/// How fast the task-space feedback comes back after it was backed off,
+/// per cycle: 2 % of the full wrench a cycle (0 to full in 50 ms at 1 kHz).
+///
+/// When the feed-forward plus the feedback wrench has no feasible tensions
+/// (the feedback pushes the wrench out of the tension polytope's image,
+/// e.g. near the workspace's border where a cable is close to `t_min`),
+/// the cycle holds the last feasible torques without leaving Enabled
+/// (`SetpointStatus::FeedbackInfeasible`) and the next cycle carries half
+/// the feedback; below [`FEEDBACK_SCALE_MIN`] none. So the feedback
+/// settles at a fraction the tension polytope admits, and a setpoint that
+/// is infeasible by itself is Holding `infeasible` at most five cycles
+/// later (the torques held meanwhile, as Holding would). After each
+/// feasible cycle the fraction grows by this much; the PID's integral is
+/// frozen while it is below full (anti-windup). One solve a cycle whatever
+/// happens: the step's cost bound is unchanged. Telemetry's
+/// `feedback_scale` shows the fraction each cycle carried.
+pub const FEEDBACK_RECOVERY_PER_CYCLE: f32 = 0.02;
+
+/// Below this fraction a backed-off task-space feedback is cut to zero
+/// (four halvings: 1/16).
+pub const FEEDBACK_SCALE_MIN: f32 = 0.0625;
+
 /// The default joint-space integral bound per cable, N.
 pub const DEFAULT_JOINT_INTEGRAL_MAX: f32 = 10.0;
 
@@ -157,6 +179,9 @@ pub struct ControlLoop {
     tracking_limit: Option<f32>,
     /// The inverse kinematics of `last_feasible`.
     feasible_lengths: Option<[f32; CABLES]>,
+    /// The fraction of the task-space feedback wrench applied
+    /// ([`FEEDBACK_RECOVERY_PER_CYCLE`]).
+    feedback_scale: f32,
 }
 
 impl ControlLoop {
@@ -204,6 +229,7 @@ impl ControlLoop {
             joint_pid,
             tracking_limit: Some(DEFAULT_TRACKING_LIMIT),
             feasible_lengths: None,
+            feedback_scale: 1.0,
             controller: Controller::new(robot, method)?,
             supervisor: Supervisor::new(limits),
             link: Link::new(range),
@@ -261,34 +287,10 @@ impl ControlLoop {
         self.last_feasible.as_ref()
     }
 
-    /// Supervision from the winch encoders: in Enabled or Holding, compares
-    /// the measured cable `lengths` (m) with the inverse kinematics of the
-    /// last feasible setpoint and enters Fault (`Reason::Tracking`) when one
-    /// differs by more than `limit` (m). Call before [`ControlLoop::step`]
-    /// of the same cycle, which then starts the fault's torque ramp with the
-    /// brakes engaged. Returns the cable with the largest error if it
-    /// faulted. A broken cable shows here within tens of milliseconds (its
-    /// unloaded winch reels in), and so does a winch that cannot deliver
-    /// its torque (its cable pays out as the platform sags).
-    pub fn check_lengths(&mut self, lengths: &[f32; CABLES], limit: f32) -> Option<usize> {
-        if !matches!(self.supervisor.state(), State::Enabled | State::Holding) {
-            return None;
-        }
-        let setpoint = self.last_feasible?;
-        // The setpoint solved, so its kinematics do: only a non-finite
-        // length fails here, which is as bad as a large one.
-        let errors = crate::feedback::length_errors(self.controller.robot(), &setpoint.pose, lengths)
-            .unwrap_or([f32::INFINITY; CABLES]);
-        let (worst, error) = errors
-            .iter()
-            .map(|e| if e.is_nan() { f32::INFINITY } else { libm::fabsf(*e) })
-            .enumerate()
-            .fold((0, 0.0f32), |best, (i, e)| if e > best.1 { (i, e) } else { best });
-        if error > limit && self.supervisor.fault(self.cycle, Reason::Tracking) {
-            self.counters.faults = self.counters.faults.wrapping_add(1);
-            return Some(worst);
-        }
-        None
+    /// The inverse kinematics of [`ControlLoop::last_feasible_setpoint`]
+    /// (what the length check compares the encoders with), m.
+    pub fn last_feasible_lengths(&self) -> Option<&[f32; CABLES]> {
+        self.feasible_lengths.as_ref()
     }
 
     /// The winch encoders' scale (from the robot file: `[winch]`'s
@@ -502,6 +504,8 @@ impl ControlLoop {
     ) -> StepReport {
         let now = self.cycle;
         let state_before = self.supervisor.state();
+        // The fraction of the task-space feedback this cycle's solve carries.
+        let mut carried = self.feedback_scale;
         let mut ticks = PhaseTicks::default();
 
         // The encoders.
@@ -524,29 +528,18 @@ impl ControlLoop {
             .map(|h| (self.scale.lengths(h, &self.readings), self.scale.rates(&self.readings)));
         ticks.read = clock.since(t_read);
 
-        // The cycle's own length check (`check_lengths` with the cached
-        // inverse kinematics of the last feasible setpoint).
+        // The length check: in Enabled or Holding, a cable more than the
+        // tracking limit off the last feasible setpoint's inverse
+        // kinematics (cached) faults (`Reason::Tracking`): a broken cable
+        // (its unloaded winch reels in), a winch that cannot deliver its
+        // torque (its cable pays out as the platform sags), the platform
+        // coasting past a frozen setpoint. In Disabled it refuses Enable.
         let mut faulted = false;
-        let mut off_track = false;
-        if let (Some((lengths, _)), Some(limit), Some(feasible)) =
-            (&measured, self.tracking_limit, &self.feasible_lengths)
+        if matches!(state_before, State::Enabled | State::Holding)
+            && self.off_track(measured.as_ref().map(|(l, _)| l))
+            && self.supervisor.fault(now, Reason::Tracking)
         {
-            let worst = lengths.iter().zip(feasible).map(|(l, f)| libm::fabsf(l - f)).fold(0.0f32, |m, e| {
-                if e <= m {
-                    m
-                } else if e.is_nan() {
-                    f32::INFINITY
-                } else {
-                    e
-                }
-            });
-            off_track = worst > limit;
-            if off_track
-                && matches!(state_before, State::Enabled | State::Holding)
-                && self.supervisor.fault(now, Reason::Tracking)
-            {
-                faulted = true;
-            }
+            faulted = true;
         }
         if encoder_fault
             && matches!(self.supervisor.state(), State::Enabled | State::Holding)
@@ -591,6 +584,9 @@ impl ControlLoop {
                         let dt = self.estimator.settings().period_s;
                         let joint = match (self.scheme, &measured, &estimate) {
                             (Scheme::TaskSpace, _, Some(Ok(est))) => {
+                                // The integral is frozen while the
+                                // feedback is backed off (anti-windup).
+                                let full = self.feedback_scale >= 1.0;
                                 feedback = task_feedback(
                                     &mut self.task_pid,
                                     self.controller.robot(),
@@ -599,8 +595,8 @@ impl ControlLoop {
                                     est,
                                     age,
                                     dt,
-                                    closed,
-                                );
+                                    closed && full,
+                                ) * self.feedback_scale;
                                 None
                             }
                             (Scheme::JointSpace, Some((lengths, rates)), Some(Ok(_))) => {
@@ -631,8 +627,21 @@ impl ControlLoop {
                 };
                 let cycle = Cycle { result: result.map(|(c, _)| c), ticks };
                 solved = Some(cycle);
+                // The feedback, not the setpoint, left the feasible set.
+                let feedback_infeasible =
+                    matches!(result, Err(Error::Infeasible)) && feedback.iter().any(|f| *f != 0.0);
                 match result {
+                    Err(Error::Infeasible) if feedback_infeasible => {
+                        carried = 0.0;
+                        self.feedback_scale = if self.feedback_scale > FEEDBACK_SCALE_MIN {
+                            0.5 * self.feedback_scale
+                        } else {
+                            0.0
+                        };
+                        SetpointStatus::FeedbackInfeasible
+                    }
                     Ok((c, lengths)) if c.torques.iter().all(|t| t.is_finite()) => {
+                        self.feedback_scale = (self.feedback_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
                         // The setpoint is feasible whatever the estimate:
                         // the length check and the stand-in plant follow it.
                         self.last_feasible = Some(setpoint);
@@ -664,14 +673,24 @@ impl ControlLoop {
                 }
             }
         }
+        // Lengths that fit no pose (a broken, slack or slipping cable, an
+        // encoder that stopped, a wrong homing once the platform moves):
+        // Fault at once, unlike the estimator's other failures.
+        if matches!(estimate, Some(Err(EstimateError::Residual)))
+            && matches!(self.supervisor.state(), State::Enabled | State::Holding)
+            && self.supervisor.fault(now, Reason::Estimator)
+        {
+            faulted = true;
+        }
         if overrun {
             self.counters.overruns = self.counters.overruns.wrapping_add(1);
         }
 
         let mut requests = core::mem::take(&mut self.requests);
         // Enable only where the platform is: within the tracking limit of
-        // the setpoint (it would fault on `tracking` at once otherwise).
-        if requests.enable && off_track {
+        // the setpoint just solved (it would fault on `tracking` at once
+        // otherwise).
+        if requests.enable && self.off_track(measured.as_ref().map(|(l, _)| l)) {
             requests.enable = false;
             self.counters.reject(Rejection::State);
         }
@@ -733,6 +752,11 @@ impl ControlLoop {
                         .iter()
                         .enumerate()
                         .fold(0u8, |bits, (i, &l)| bits | (u8::from(l) << i)),
+                    feedback_scale: if self.scheme == Scheme::TaskSpace {
+                        (carried * 100.0 + 0.5) as u8
+                    } else {
+                        100
+                    },
                 }
             });
         self.cycle = self.cycle.wrapping_add(1);
@@ -749,6 +773,21 @@ impl ControlLoop {
             offsets,
             unreadable_drive,
         }
+    }
+
+    /// Whether a measured cable length is more than the tracking limit off
+    /// the last feasible setpoint's (a NaN counts as off; no limit, no
+    /// lengths or no feasible setpoint: not off).
+    fn off_track(&self, lengths: Option<&[f32; CABLES]>) -> bool {
+        let (Some(lengths), Some(limit), Some(feasible)) =
+            (lengths, self.tracking_limit, &self.feasible_lengths)
+        else {
+            return false;
+        };
+        lengths.iter().zip(feasible).any(|(l, f)| {
+            let e = libm::fabsf(l - f);
+            e > limit || e.is_nan()
+        })
     }
 
     /// A `Home` (Disabled when it was accepted; still Disabled now): the

@@ -71,13 +71,20 @@ pub struct EstimatorSettings {
 }
 
 impl EstimatorSettings {
-    /// The firmware's: 1 ms, 50 Hz, 5 mm residual, 50 mm (0.05 rad)
-    /// correction. The residual limit is a few hundred encoder counts
-    /// (7.7 um each) above the linearisation error and the geometric
-    /// errors of a calibrated frame (a few mm of anchor position show as
-    /// about that much residual); a cable slack or slipping by more shows.
+    /// The firmware's: 1 ms, 50 Hz, 1 mm residual, 50 mm (0.05 rad)
+    /// correction. The residual limit is 130 encoder counts (7.7 um each
+    /// on suspended-8) and three times the residual that a calibrated
+    /// frame's geometric errors leave: in `hal-sim`, the plant's anchors
+    /// 2 mm off the robot file's give at most 0.36 mm over the tracking
+    /// loop, with the linearisation error (`|delta|^2 / L`, 0.2 mm at the
+    /// 20 mm tracking limit) inside it. A cable slack, broken or slipping
+    /// by a few mm, an encoder that stops while the platform moves, or a
+    /// homing some 15 mm off once the platform has moved half a metre,
+    /// shows beyond it (the control loop faults: `Reason::Estimator`). A
+    /// frame calibrated less well needs a larger limit
+    /// (`ControlLoop::set_estimator`).
     pub const DEFAULT: Self =
-        Self { period_s: 0.001, cutoff_hz: 50.0, residual_max: 0.005, correction_max: 0.05 };
+        Self { period_s: 0.001, cutoff_hz: 50.0, residual_max: 0.001, correction_max: 0.05 };
 
     /// The filter's `alpha = T / (T + 1 / (2 pi f_c))`.
     pub fn alpha(&self) -> f32 {

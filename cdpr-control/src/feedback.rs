@@ -39,9 +39,9 @@
 //!
 //! # Cable-length check
 //!
-//! [`length_errors`] compares the winch encoders' cable lengths with the
-//! inverse kinematics of a setpoint; `ControlLoop::check_lengths` faults
-//! (`Reason::Tracking`) when one is off by more than a limit.
+//! `ControlLoop::step` compares the winch encoders' cable lengths with the
+//! inverse kinematics of the last feasible setpoint and faults
+//! (`Reason::Tracking`) when one is off by more than the tracking limit.
 
 use tension_core::nalgebra::{Matrix3, Vector3};
 use tension_core::{Error, Motion, RobotKind};
@@ -424,20 +424,4 @@ pub fn extrapolate(setpoint: &Setpoint, dt: f32) -> Setpoint {
         velocity: setpoint.velocity + setpoint.acceleration * dt,
         acceleration: setpoint.acceleration,
     }
-}
-
-/// Measured minus commanded cable length for every cable, m: `lengths`
-/// from the winch encoders, the commanded ones from the inverse kinematics
-/// of `pose`.
-pub fn length_errors(
-    robot: &ControlRobot,
-    pose: &Pose6,
-    lengths: &[f32; CABLES],
-) -> Result<[f32; CABLES], Error> {
-    let cables = robot.cables(pose)?;
-    let mut out = [0.0; CABLES];
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = lengths[i] - cables.lengths[i];
-    }
-    Ok(out)
 }

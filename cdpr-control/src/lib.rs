@@ -10,8 +10,7 @@
 //!   value ranges) and the counters of rejected frames;
 //! * [`control_loop`]: the three together, one call per millisecond;
 //! * [`feedback`]: the two feedback schemes (task-space PID on the
-//!   estimated pose, joint-space PID on the cable lengths) and the
-//!   cable-length check behind [`ControlLoop::check_lengths`];
+//!   estimated pose, joint-space PID on the cable lengths);
 //! * [`drives`]: the winch trait (torques and brakes out, encoder
 //!   readings in), with an embedded-hal 1.0 PWM adapter;
 //! * [`encoder`]: encoder counts to cable lengths, and the homing offsets;
@@ -42,7 +41,9 @@ pub mod stats;
 pub mod supervisor;
 
 pub use cdpr_protocol as protocol;
-pub use control_loop::{ControlLoop, MethodSet, StepReport, RECEIVE_BUDGET};
+pub use control_loop::{
+    ControlLoop, MethodSet, StepReport, FEEDBACK_RECOVERY_PER_CYCLE, FEEDBACK_SCALE_MIN, RECEIVE_BUDGET,
+};
 pub use drives::{WinchDrives, WinchReading};
 pub use robot::{ControlRobot, CABLES, DOF};
 pub use setpoint::Setpoint;

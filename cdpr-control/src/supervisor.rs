@@ -27,7 +27,9 @@
 //! * **Holding**: the newest setpoint is infeasible, bad (non-finite, out of
 //!   range, solver failure) or stale (no setpoint for more than
 //!   `stale_cycles`), or the pose estimator failed (`estimator`): the last
-//!   feasible torques are held. A feasible fresh
+//!   feasible torques are held (a cycle whose task-space feedback alone
+//!   made the setpoint infeasible gets them too, the state unchanged:
+//!   `FeedbackInfeasible`). A feasible fresh
 //!   setpoint returns to Enabled; after `hold_cycles` of holding, Fault.
 //! * **Fault**: brakes engaged, torques ramp to zero like Disabled; the
 //!   state is latched until `ClearFault` (granted once the ramp has
@@ -88,6 +90,10 @@ pub enum SetpointStatus {
     /// closed loop cannot run (Holding with `Reason::Estimator`; Enable
     /// refused).
     Unobservable,
+    /// The setpoint with the task-space feedback wrench had no feasible
+    /// tensions (the setpoint alone may): the last feasible torques this
+    /// cycle, the state unchanged (`ControlLoop` backs the feedback off).
+    FeedbackInfeasible,
 }
 
 /// Commands waiting for the next cycle.
@@ -292,6 +298,19 @@ impl Supervisor {
                     SetpointStatus::Bad => Some(Reason::BadSetpoint),
                     SetpointStatus::Stale => Some(Reason::Stale),
                     SetpointStatus::Unobservable => Some(Reason::Estimator),
+                    // Neither a problem nor a fresh solution: one cycle
+                    // more of the last feasible torques; a hold goes on.
+                    SetpointStatus::FeedbackInfeasible => {
+                        if self.state == State::Holding
+                            && now.wrapping_sub(self.hold_start) >= self.limits.hold_cycles
+                        {
+                            self.enter_fault(now, Reason::HoldTimeout);
+                            self.output = self.ramp(now);
+                        } else {
+                            self.output = self.last_feasible;
+                        }
+                        return self.finish_cycle(before, decisions);
+                    }
                 };
                 match problem {
                     None => self.output = self.last_feasible,
@@ -312,6 +331,11 @@ impl Supervisor {
             }
         }
 
+        self.finish_cycle(before, decisions)
+    }
+
+    /// The cycle's output and what it decided, from the state before it.
+    fn finish_cycle(&self, before: State, mut decisions: Decisions) -> (Output, Decisions) {
         decisions.faulted = self.state == State::Fault && before != State::Fault;
         decisions.disabled = self.state == State::Disabled && before != State::Disabled;
         let brakes = matches!(self.state, State::Disabled | State::Fault);

@@ -309,20 +309,59 @@ fn an_unreadable_drive_in_disabled_only_shows() {
 }
 
 #[test]
+fn lengths_that_fit_no_pose_fault_at_once() {
+    let mut rig = Rig::homed();
+    rig.control.set_tracking_limit(None);
+    rig.enable(Scheme::JointSpace);
+    rig.control.receive(HostMessage::TelemetryPeriod(1));
+    // Cable 5 slips by 5 mm: no pose has these lengths. The two redundant
+    // cables absorb most of one cable's slip (5 mm leaves a residual of
+    // about 1.4 mm, beyond the estimator's 1 mm; 2 mm would leave 0.55 mm).
+    let mut lengths = lengths_at(&rig.control, POSE);
+    lengths[5] += 0.005;
+    rig.set_lengths(&lengths);
+    let r = rig.step_at(POSE);
+    assert!(
+        matches!(r.estimate, Some(Err(cdpr_control::estimator::EstimateError::Residual))),
+        "{:?}",
+        r.estimate
+    );
+    assert_eq!((r.state, r.reason, r.brakes), (State::Fault, Reason::Estimator, true));
+    assert_eq!(rig.control.counters().faults, 1);
+    assert!(r.telemetry.unwrap().residual.is_nan());
+    // 2 mm is within the limit: Enabled, the residual in telemetry.
+    let mut rig = Rig::homed();
+    rig.control.set_tracking_limit(None);
+    rig.enable(Scheme::JointSpace);
+    rig.control.receive(HostMessage::TelemetryPeriod(1));
+    let mut lengths = lengths_at(&rig.control, POSE);
+    lengths[5] += 0.002;
+    rig.set_lengths(&lengths);
+    let r = rig.step_at(POSE);
+    assert_eq!(r.state, State::Enabled, "{:?}", r.estimate);
+    let residual = r.telemetry.unwrap().residual;
+    assert!(residual > 0.3e-3 && residual < 1e-3, "{residual}");
+}
+
+/// The lengths of `POSE` moved by 60 mm along x: a pose, but beyond the
+/// estimator's 50 mm correction about the setpoint.
+fn lengths_60_mm_off(control: &ControlLoop) -> [f32; CABLES] {
+    let mut far = POSE;
+    far[0] += 0.06;
+    lengths_at(control, far)
+}
+
+#[test]
 fn an_estimator_failure_holds_then_faults() {
     let mut rig = Rig::homed();
     rig.control.set_tracking_limit(None);
     rig.enable(Scheme::JointSpace);
-    // Cable 5 slips by 30 mm: no pose has these lengths (residual > 5 mm;
-    // the two redundant cables absorb most of one cable's slip: 12 mm
-    // leaves a residual of 3.3 mm).
-    let mut lengths = lengths_at(&rig.control, POSE);
-    lengths[5] += 0.03;
-    rig.set_lengths(&lengths);
+    let held = rig.step_at(POSE).torques;
+    rig.set_lengths(&lengths_60_mm_off(&rig.control));
     let r = rig.step_at(POSE);
     assert_eq!((r.state, r.reason), (State::Holding, Reason::Estimator), "{:?}", r.estimate);
-    assert!(matches!(r.estimate, Some(Err(cdpr_control::estimator::EstimateError::Residual))));
-    let held = r.torques;
+    assert!(matches!(r.estimate, Some(Err(cdpr_control::estimator::EstimateError::Correction))));
+    assert_eq!(r.torques, held);
     let mut r = r;
     for _ in 0..SafetyLimits::DEFAULT.hold_cycles {
         r = rig.step_at(POSE);
@@ -341,8 +380,7 @@ fn an_estimator_failure_clears_when_the_lengths_agree_again() {
     rig.control.set_tracking_limit(None);
     rig.enable(Scheme::TaskSpace);
     let good = lengths_at(&rig.control, POSE);
-    let mut bad = good;
-    bad[0] -= 0.02;
+    let bad = lengths_60_mm_off(&rig.control);
     rig.set_lengths(&bad);
     assert_eq!(rig.step_at(POSE).state, State::Holding);
     rig.set_lengths(&good);
@@ -459,4 +497,102 @@ fn the_estimate_agrees_with_tension_cores_forward_kinematics() {
             );
         }
     }
+}
+
+/// A task-space PID whose wrench is bounded only far beyond what the
+/// cables can give (1 kN, 100 N m).
+fn unbounded_task_pid(control: &ControlLoop) -> cdpr_control::feedback::TaskPid {
+    cdpr_control::feedback::TaskPid::new(
+        *control.task_pid().gains(),
+        cdpr_control::feedback::FeedbackLimits {
+            force_max: 1000.0,
+            moment_max: 100.0,
+            integral_max: [0.0; 6],
+        },
+    )
+}
+
+#[test]
+fn an_infeasible_feedback_wrench_backs_off_and_recovers() {
+    let mut rig = Rig::homed();
+    rig.control.set_tracking_limit(None);
+    let pid = unbounded_task_pid(&rig.control);
+    rig.control.set_task_pid(pid);
+    rig.control.receive(HostMessage::TelemetryPeriod(1));
+    rig.enable(Scheme::TaskSpace);
+    let held = rig.step_at(POSE).torques;
+    // The platform 15 mm along x: the PID asks for about -280 N sideways,
+    // which no tensions within the limits give.
+    let mut off = POSE;
+    off[0] += 0.015;
+    rig.set_lengths(&lengths_at(&rig.control, off));
+    let mut scales = Vec::new();
+    let mut first_solved = None;
+    for k in 0..200 {
+        let r = rig.step_at(POSE);
+        assert_eq!(r.state, State::Enabled, "cycle {k}: {:?}", r.reason);
+        let t = r.telemetry.unwrap();
+        scales.push(t.feedback_scale);
+        match r.solved.unwrap().result {
+            Err(tension_core::Error::Infeasible) => {
+                assert_eq!(t.feedback_scale, 0);
+                // Held: the last feasible torques, not a ramp or zero.
+                if first_solved.is_none() {
+                    assert_eq!(r.torques, held, "cycle {k}");
+                }
+            }
+            Ok(c) => {
+                first_solved.get_or_insert(k);
+                // None at all once the halving went below 1/16.
+                if t.feedback_scale == 0 {
+                    assert!(r.feedback.iter().all(|f| *f == 0.0), "{:?}", r.feedback);
+                } else {
+                    assert!(r.feedback[0] < 0.0, "{:?}", r.feedback);
+                }
+                assert_eq!(r.torques, c.torques);
+            }
+            Err(e) => panic!("cycle {k}: {e:?}"),
+        }
+    }
+    // Halved each cycle: 100 (failed), 50, 25, 12.5, 6.25, then none;
+    // the first cycle that solves is within five.
+    let first = first_solved.expect("the feedback backs off until a cycle solves");
+    assert!(first <= 5, "{scales:?}");
+    assert_eq!(scales[0], 0, "{scales:?}");
+    // After a solve the fraction grows 2 % a cycle until it fails again.
+    assert!(scales.windows(2).any(|w| w[0] > 0 && w[1] == w[0] + 2), "{scales:?}");
+    // And never climbs back to full: 280 N is out of reach.
+    assert!(scales.iter().all(|&s| s < 100), "{scales:?}");
+}
+
+#[test]
+fn a_setpoint_infeasible_by_itself_holds_despite_the_backing_off() {
+    let mut rig = Rig::homed();
+    rig.control.set_tracking_limit(None);
+    rig.control.set_jump_limits(None);
+    let pid = unbounded_task_pid(&rig.control);
+    rig.control.set_task_pid(pid);
+    rig.enable(Scheme::TaskSpace);
+    let held = rig.step_at(POSE).torques;
+    // In range, but beyond the wrench-feasible workspace (the platform's
+    // lengths there, so that the estimate and the feedback run).
+    let high = [0.0, 0.0, 3.4, 0.0, 0.0, 0.0];
+    let mut near = high;
+    near[0] += 0.001;
+    rig.set_lengths(&lengths_at(&rig.control, near));
+    let mut held_for = 0;
+    loop {
+        let r = rig.step_at(high);
+        assert!(matches!(r.estimate, Some(Ok(_))), "{:?}", r.estimate);
+        assert_eq!(r.torques, held);
+        if r.state == State::Holding {
+            assert_eq!(r.reason, Reason::Infeasible);
+            break;
+        }
+        assert_eq!(r.state, State::Enabled);
+        held_for += 1;
+        assert!(held_for <= 5, "still Enabled after {held_for} cycles");
+    }
+    assert!(held_for >= 1, "the feedback was on: the first failure is the feedback's");
+    assert_eq!(rig.control.counters().infeasible, 1);
 }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use cdpr_control::feedback::{extrapolate, length_errors, pose_error};
+use cdpr_control::feedback::{extrapolate, pose_error};
 use cdpr_control::protocol::{HostMessage, Reason, Setpoint, State};
 use cdpr_control::setpoint::Pose6;
 use cdpr_control::supervisor::SafetyLimits;
@@ -60,32 +60,48 @@ fn extrapolation_is_constant_acceleration() {
 #[test]
 fn lengths_off_the_setpoint_fault_only_when_enabled() {
     let robot = common::suspended8();
-    let lengths: [f32; CABLES] = robot.cables(&Pose6::from(POSE)).unwrap().lengths.into();
-    assert!(length_errors(&robot, &Pose6::from(POSE), &lengths).unwrap().iter().all(|e| e.abs() < 1e-6));
-
     let mut control =
         ControlLoop::new(robot, Method::Barycenter, common::setpoint_range(), SafetyLimits::DEFAULT).unwrap();
     let setpoint = |seq| Setpoint { seq, pose: POSE, velocity: [0.0; 6], acceleration: [0.0; 6] };
     let mut null = Null(common::readings_at(&control, POSE));
     common::home(&mut control, &mut null, POSE);
+    // The platform somewhere else along z: lengths that fit a pose (the
+    // estimator accepts them), `dz` from the setpoint's.
+    let platform_at = |control: &ControlLoop, dz: f32| {
+        let mut pose = POSE;
+        pose[2] += dz;
+        let robot = control.controller().robot();
+        let there = robot.cables(&Pose6::from(pose)).unwrap().lengths;
+        let here = robot.cables(&Pose6::from(POSE)).unwrap().lengths;
+        let worst = (there - here).amax();
+        (common::readings_at(control, pose), worst)
+    };
+    let (far, far_worst) = platform_at(&control, 0.045);
+    let (near, near_worst) = platform_at(&control, 0.03);
+    assert!(far_worst > 0.02 && near_worst < 0.02, "{far_worst} {near_worst}");
+    // Disabled: no fault, but Enable is refused where the platform is not.
+    null.0 = far;
     control.receive(HostMessage::Setpoint(setpoint(1)));
-    control.step(&NoClock, &mut null, false);
-    let mut off = lengths;
-    off[3] += 0.05;
-    // Disabled: no check.
-    assert_eq!(control.check_lengths(&off, 0.02), None);
+    control.receive(HostMessage::Enable);
+    let r = control.step(&NoClock, &mut null, false);
+    assert_eq!((r.state, r.reason), (State::Disabled, Reason::None));
+    assert_eq!(control.counters().faults, 0);
+    null.0 = common::readings_at(&control, POSE);
     control.receive(HostMessage::Setpoint(setpoint(2)));
     control.receive(HostMessage::Enable);
     assert_eq!(control.step(&NoClock, &mut null, false).state, State::Enabled);
-    // Within the limit: nothing; beyond it: Fault, tracking, from this cycle on.
-    off[3] = lengths[3] + 0.015;
-    assert_eq!(control.check_lengths(&off, 0.02), None);
-    off[3] = lengths[3] + 0.05;
-    assert_eq!(control.check_lengths(&off, 0.02), Some(3));
+    // Within the limit: nothing; beyond it: Fault, tracking, this cycle.
+    null.0 = near;
+    control.receive(HostMessage::Setpoint(setpoint(3)));
+    assert_eq!(control.step(&NoClock, &mut null, false).state, State::Enabled);
+    null.0 = far;
+    control.receive(HostMessage::Setpoint(setpoint(4)));
     let r = control.step(&NoClock, &mut null, false);
+    assert!(matches!(r.estimate, Some(Ok(_))), "{:?}", r.estimate);
     assert_eq!((r.state, r.reason, r.brakes), (State::Fault, Reason::Tracking, true));
     assert_eq!(control.counters().faults, 1);
-    // Latched: a second check does not count another fault.
-    assert_eq!(control.check_lengths(&off, 0.02), None);
+    // Latched: the next cycle does not count another fault.
+    control.receive(HostMessage::Setpoint(setpoint(5)));
+    assert_eq!(control.step(&NoClock, &mut null, false).state, State::Fault);
     assert_eq!(control.counters().faults, 1);
 }

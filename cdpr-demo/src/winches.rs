@@ -53,15 +53,15 @@ impl LagWinches {
         Some(w)
     }
 
-    /// One 1 ms period towards `pose`'s inverse kinematics (stays put if
-    /// `None` or without kinematics).
-    pub fn follow(&mut self, robot: &ControlRobot, pose: Option<&Pose6>, period_s: f32) {
-        match pose.and_then(|p| robot.cables(p).ok()) {
-            Some(cables) => {
-                for i in 0..CABLES {
-                    let step = (cables.lengths[i] - self.lengths[i]) * LAG_STEP;
-                    self.lengths[i] += step;
-                    self.rates[i] = step / period_s;
+    /// One 1 ms period towards the cable lengths `target` (the control
+    /// loop's for its tracked setpoint; stays put if `None`).
+    pub fn follow(&mut self, target: Option<&[f32; CABLES]>, period_s: f32) {
+        match target {
+            Some(target) => {
+                for ((length, rate), goal) in self.lengths.iter_mut().zip(&mut self.rates).zip(target) {
+                    let step = (goal - *length) * LAG_STEP;
+                    *length += step;
+                    *rate = step / period_s;
                 }
             }
             None => self.rates = [0.0; CABLES],

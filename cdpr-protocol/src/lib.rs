@@ -25,7 +25,7 @@
 //! receiver's business: see `cdpr-control`'s link layer.
 //!
 //! Tags and fields are wire-stable: variants and fields are only appended.
-//! The telemetry sample is the largest message: at most 185 bytes of
+//! The telemetry sample is the largest message: at most 186 bytes of
 //! postcard (every counter at `u32::MAX`; `tests/frames.rs` pins it), so
 //! at 115 200 baud (11.5 bytes per ms) one sample every 17 control cycles
 //! or more is sustainable.
@@ -41,7 +41,7 @@ pub use messages::*;
 use serde::{de::DeserializeOwned, Serialize};
 
 /// Largest postcard payload of any message, bytes (the telemetry message
-/// is the largest: 185 bytes at most, with every counter at its largest; see
+/// is the largest: 186 bytes at most, with every counter at its largest; see
 /// `tests/frames.rs`).
 pub const MAX_PAYLOAD: usize = 192;
 

@@ -306,6 +306,12 @@ pub struct Telemetry {
     /// taken outside `t_min..t_max`, one bit per cable (bit `i`: cable
     /// `i`); those tensions were limited to the bound.
     pub tension_limited: u8,
+    /// How much of the task-space feedback wrench the tension distribution
+    /// carried this cycle, percent (100 in the other schemes). 0 in a cycle
+    /// whose feed-forward plus feedback had no feasible tensions (the last
+    /// feasible torques held); the next cycles carry half as much each
+    /// until it solves (nothing below 1/16), then 2 % more a cycle.
+    pub feedback_scale: u8,
 }
 
 /// Firmware to host.

@@ -84,6 +84,7 @@ fn largest_message_fits() {
         feedback: u8::MAX,
         unreadable_drive: Some(u8::MAX),
         tension_limited: u8::MAX,
+        feedback_scale: u8::MAX,
     };
     let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
     assert!(frame.len() <= MAX_FRAME, "{} bytes", frame.len());
@@ -91,7 +92,7 @@ fn largest_message_fits() {
     // frame less the COBS code byte, the CRC and the delimiter.
     let mut buf = [0u8; MAX_PAYLOAD];
     let payload = postcard::to_slice(&DeviceMessage::Telemetry(telemetry), &mut buf).unwrap();
-    assert_eq!(payload.len(), 185);
+    assert_eq!(payload.len(), 186);
     assert!(payload.len() <= MAX_PAYLOAD);
     let decoded = feed::<DeviceMessage>(&frame);
     let Some(Ok(DeviceMessage::Telemetry(back))) = decoded.first().cloned() else { panic!("{decoded:?}") };

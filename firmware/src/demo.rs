@@ -342,8 +342,7 @@ async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults
         let ticks = end.wrapping_sub(start);
         control.record_cost(units(ticks));
         // The encoders' stand-in, outside the measured step.
-        let tracked = control.last_feasible_setpoint().map(|s| s.pose);
-        drives.advance(control.controller().robot(), tracked.as_ref());
+        drives.advance(control.last_feasible_lengths());
 
         r.record_step(&report, start, t_setpoint, end);
         if k == INJECT_AT {
@@ -578,7 +577,12 @@ fn replay_forward_kinematics(clock: &Tim2Counter, samples: &mut Samples) -> Spre
     let (mut ok, mut failed, mut cold, mut iterations, mut worst_residual) = (0u32, 0u32, 0u32, 0u32, 0.0f32);
     let (mut worst_warm, mut worst_cold) = (0u32, 0u32);
     for k in 0..CYCLES as u32 {
-        winches.follow(robot, Some(&trajectory::script(k).pose), 0.001);
+        let target = robot.cables(&trajectory::script(k).pose).ok().map(|c| {
+            let mut l = [0.0; CABLES];
+            l.copy_from_slice(c.lengths.as_slice());
+            l
+        });
+        winches.follow(target.as_ref(), 0.001);
         let lengths = tension_core::nalgebra::SVector::<f32, CABLES>::from(*winches.lengths());
         let (ticks, result) = cortex_m::interrupt::free(|_| {
             let t = clock.ticks();

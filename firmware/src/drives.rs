@@ -69,15 +69,16 @@ impl Drives {
         }
     }
 
-    /// One period of the stand-in towards `pose` (the tracked setpoint's);
-    /// call outside the measured step. Nothing on the real board.
-    pub fn advance(&mut self, robot: &cdpr_control::ControlRobot, pose: Option<&Pose6>) {
+    /// One period of the stand-in towards the cable lengths `target` (the
+    /// tracked setpoint's, `ControlLoop::last_feasible_lengths`); call
+    /// outside the measured step. Nothing on the real board.
+    pub fn advance(&mut self, target: Option<&[f32; cdpr_control::CABLES]>) {
         #[cfg(not(feature = "board"))]
         if let Some(w) = &mut self.stand_in {
-            w.follow(robot, pose, 0.001);
+            w.follow(target, 0.001);
         }
         #[cfg(feature = "board")]
-        let _ = (robot, pose);
+        let _ = target;
     }
 }
 

@@ -313,11 +313,11 @@ impl Scenario {
 
         let mut s = Self::base(
             "wrong-homing-rotation",
-            "the host homes (and starts its loop) 0.05 rad off the true pose, about z",
+            "the host homes (and starts its loop) 0.1 rad off the true pose, about z",
             8.5,
             TRACK,
         );
-        s.start_error = [0.0, 0.0, 0.0, 0.0, 0.0, 0.05];
+        s.start_error = [0.0, 0.0, 0.0, 0.0, 0.0, 0.1];
         out.push(s);
 
         let mut s = Self::base(

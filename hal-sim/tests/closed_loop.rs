@@ -100,17 +100,6 @@ fn feed_forward_alone_does_not_hold() {
     assert!(f.position_error > 5.0e-3 || o.transitions.len() > 1, "{f:?}");
 }
 
-/// Largest position error (m) from Enable to the first change of state
-/// after it (or the end).
-fn error_while_enabled(o: &Outcome) -> f64 {
-    let end = o.transitions.get(1).map_or(f64::INFINITY, |t| t.0);
-    o.rows
-        .iter()
-        .filter(|r| r.t >= o.scenario.enable_at && r.t < end)
-        .map(|r| r.position_error())
-        .fold(0.0, f64::max)
-}
-
 #[test]
 fn tracking_a_loop_through_the_workspace() {
     let config = Config::standard();
@@ -138,27 +127,30 @@ fn tracking_a_loop_through_the_workspace() {
     let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
     assert!(lo < -0.75 && hi > 0.75, "{lo} {hi}");
 
-    // Task space: does not complete. Near the top of the loop the tensions
-    // are near t_min and the feedback wrench makes the distribution
-    // infeasible: Holding `infeasible` and back, repeatedly, from 3.74 s,
-    // then Fault `tracking` at 4.11 s (the brakes hold it). Until the
-    // first hold it tracks within 1 mm.
+    // The residual with the right homing: the plant's 2 mm anchor errors
+    // show as at most 0.32 mm (the estimator's limit is 1 mm).
+    assert!(f.residual < 0.5e-3, "{}", f.residual);
+
+    // Task space: the loop completes, Enabled throughout (0.67 mm,
+    // 0.75 deg). Near the top of the loop the tensions are near t_min and
+    // the full feedback wrench has no feasible tensions: there the
+    // feedback backs off (`cdpr_control::FEEDBACK_RECOVERY_PER_CYCLE`),
+    // and telemetry shows it. Before the back-off existed, this run went
+    // Holding `infeasible` at 3.74 s and Fault `tracking` at 4.11 s.
     let s = with("track", Scheme::TaskSpace);
     let o = run_and_write(&s, &config);
     let f = figures(&o, 0.0);
     report(&s.name, &f);
-    let first = o.transitions[1];
-    assert_eq!((first.1, first.2), (State::Holding, Reason::Infeasible), "{:?}", o.transitions);
-    assert!(first.0 > 3.5, "{first:?}");
-    let e = error_while_enabled(&o);
-    println!("{}: error before the first hold {:.3} mm", s.name, e * 1e3);
-    assert!(e < 1.0e-3, "{e}");
-    let last = *o.transitions.last().unwrap();
-    assert_eq!((last.1, last.2), (State::Fault, Reason::Tracking), "{:?}", o.transitions);
-    assert!(last.0 < 4.5, "{last:?}");
-    let fault = f.fault_at.unwrap();
-    assert!(o.rows.iter().filter(|r| r.t >= fault).all(|r| r.brakes));
-    assert!(f.locked_at.unwrap() - fault <= 0.021 + 1e-9);
+    assert_eq!(states(&o), vec![(State::Enabled, Reason::None, Reason::None)]);
+    assert!(f.position_error < 1.0e-3, "{} m", f.position_error);
+    assert!(f.rotation_error < 1.0f64.to_radians(), "{} rad", f.rotation_error);
+    assert!(f.estimate_error < 1.0e-3, "{}", f.estimate_error);
+    assert!(f.residual < 0.5e-3, "{}", f.residual);
+    assert!(f.tension_min > 2.0 && f.tension_max <= f64::from(t_max), "{f:?}");
+    assert!(f.commanded.0 >= t_min && f.commanded.1 <= t_max, "{:?}", f.commanded);
+    let backed_off = o.telemetry.iter().filter(|t| t.feedback_scale < 100).count();
+    println!("{}: feedback backed off in {backed_off} of {} telemetry samples", s.name, o.telemetry.len());
+    assert!(backed_off > 0 && backed_off < o.telemetry.len() / 4, "{backed_off}");
 }
 
 /// Fault checks shared by the static scenarios: the expected state
@@ -197,30 +189,16 @@ fn static_fault(s: &Scenario, expected: &[(State, Reason, Reason)]) -> Figures {
 }
 
 #[test]
-fn cable_break_faults_on_tracking_and_the_brakes_hold() {
-    // With the true pose (before the estimator) the fault came at +38 ms:
-    // the bound was 50 ms. Now neither scheme meets it (the test allows
-    // 100 ms). Joint space: the broken cable's winch reels in, the
-    // lengths stop fitting one pose, the estimator holds (residual over
-    // 5 mm, +75 ms), the length check faults (+93 ms); 2.5 mm. Task
-    // space: the wrench turns infeasible at +8 ms (Holding: the last
-    // feasible torques, without the broken cable's pull), the length
-    // check faults at +85 ms, and the platform swings 30 mm (drop 9 mm,
-    // 0.27 m/s) before the brakes hold: the 5 mm bound does not hold,
-    // 40 mm is asserted.
-    let cases = [
-        (Scheme::JointSpace, Reason::Estimator, 5.0e-3, 0.15),
-        (Scheme::TaskSpace, Reason::Infeasible, 40.0e-3, 0.4),
-    ];
-    for (scheme, hold, moved, speed) in cases {
+fn cable_break_faults_within_50_ms_and_the_brakes_hold() {
+    // The broken cable's winch reels in: its length stops fitting the
+    // pose the others give, and the estimator's residual passes 1 mm
+    // (Fault `estimator`: +19 ms task space, +28 ms joint space). The
+    // bounds of the true-pose simulator hold again (with the 5 mm
+    // residual limit and a hold first, these were +85 and +93 ms).
+    for scheme in SCHEMES {
         let s = with("cable-break", scheme);
-        let (f, _) = static_fault_within(
-            &s,
-            &[(State::Holding, hold, hold), (State::Fault, Reason::Tracking, Reason::None)],
-            moved,
-            speed,
-        );
-        assert!(f.fault_at.unwrap() < 1.1, "{}: {:?}", s.name, f.fault_at);
+        let f = static_fault(&s, &[(State::Fault, Reason::Estimator, Reason::None)]);
+        assert!(f.fault_at.unwrap() < 1.05, "{}: {:?}", s.name, f.fault_at);
     }
 }
 
@@ -298,48 +276,34 @@ fn lost_stream_while_moving_faults_and_the_platform_does_not_fall() {
 }
 
 #[test]
-fn without_the_length_check_a_broken_cable_is_caught_late() {
-    // The fast detection is the cable-length check: with it off, the break
-    // shows as a hold (the estimator's residual in joint space, the
-    // infeasible wrench in task space) that faults only when it times out,
-    // 100 ms later.
+fn without_the_length_check_a_broken_cable_is_caught_all_the_same() {
+    // The two detections are independent: with the cable-length check off
+    // the residual faults in the very same cycle.
     let config = Config { length_limit: f32::INFINITY, ..Config::standard() };
-    for (scheme, hold) in [(Scheme::JointSpace, Reason::Estimator), (Scheme::TaskSpace, Reason::Infeasible)] {
+    for scheme in SCHEMES {
         let s = with("cable-break", scheme);
         let o = run(&s, &config).unwrap();
-        let late = figures(&o, 0.0);
+        let unchecked = figures(&o, 0.0);
         let checked = figures(&run(&s, &Config::standard()).unwrap(), 0.0);
-        report(&format!("{} without the length check", s.name), &late);
-        assert_eq!(
-            states(&o)[1..],
-            [(State::Holding, hold, hold), (State::Fault, Reason::HoldTimeout, hold)],
-            "{}",
-            s.name
-        );
-        assert!(late.fault_at.unwrap() > checked.fault_at.unwrap() + 0.005, "{:?}", o.transitions);
+        report(&format!("{} without the length check", s.name), &unchecked);
+        assert_eq!(states(&o)[1..], [(State::Fault, Reason::Estimator, Reason::None)], "{}", s.name);
+        assert_eq!(unchecked.fault_at, checked.fault_at, "{}", s.name);
     }
 }
 
 #[test]
-fn stuck_encoder_faults_on_tracking_within_50_ms() {
+fn stuck_encoder_faults_within_50_ms() {
     // Encoder 1 stops counting at 2 s while the platform moves at
-    // 0.57 m/s: its length falls behind the setpoint's by the cable's
-    // speed; the length check faults when the gap passes 20 mm (+43 ms,
-    // both schemes; joint space holds on the estimator's residual first,
-    // at +33 ms). The brakes stop the platform about 55 mm on.
+    // 0.57 m/s: its length falls behind the others' by the cable's speed,
+    // and the residual passes 1 mm at +7 ms (both schemes; the length
+    // check would fault at +43 ms). The brakes stop the platform about
+    // 35 mm on.
     for scheme in SCHEMES {
         let s = with("encoder-stuck", scheme);
-        let (f, o) = moving_fault(&s, Reason::Tracking, 0.05);
+        let (f, o) = moving_fault(&s, Reason::Estimator, 0.05);
         report(&s.name, &f);
-        if scheme == Scheme::JointSpace {
-            assert_eq!(
-                states(&o)[1..],
-                [
-                    (State::Holding, Reason::Estimator, Reason::Estimator),
-                    (State::Fault, Reason::Tracking, Reason::None)
-                ]
-            );
-        }
+        assert_eq!(states(&o)[1..], [(State::Fault, Reason::Estimator, Reason::None)]);
+        assert!(f.fault_at.unwrap() < s.event.unwrap() + 0.015, "{:?}", f.fault_at);
     }
 }
 
@@ -367,31 +331,45 @@ fn drive_unreadable_faults_on_encoder_in_the_same_cycle() {
 }
 
 #[test]
-fn wrong_homing_is_not_caught() {
+fn wrong_homing_is_caught_once_the_platform_moves() {
     // The host homes (and starts its loop) where it believes the platform
-    // is, 20 mm (or 0.05 rad) off where it is. The setpoints are the
-    // homing pose's, so the Enable check and the length check (encoder
-    // lengths against the setpoint's) see nothing, and the encoder
-    // lengths stay those of one pose (the redundancy of 8 cables on 6 DOF
-    // exposes only the change of the cable directions over the loop:
-    // a residual of at most 1.8 mm, under the 5 mm limit). Joint space
-    // runs the whole loop Enabled, offset by the homing error; task space
-    // faults as on `track` (its own limitation, not a detection).
+    // is, 20 mm or 0.1 rad off where it is. At the homing pose nothing can
+    // tell: the offsets make the encoder lengths those of the homing pose,
+    // the Enable check and the length check compare them with the
+    // setpoints, which start there. The redundancy of 8 cables on 6 DOF
+    // exposes the error once the cable directions change: over the loop
+    // the lengths stop fitting any one pose, and the residual passes the
+    // estimator's 1 mm (with the right homing it stays under 0.4 mm).
+    // 20 mm: Fault `estimator` at 2.27 s (task space) and 2.32 s (joint
+    // space), 0.5 m into the loop. 0.1 rad: task space at 3.58 s; joint
+    // space is not caught (residual at most 0.94 mm). Errors smaller than
+    // that are within what the anchors' calibration error leaves; a
+    // homing at a known reference (a fixture, end stops) is the user's.
     let config = Config::standard();
-    for (name, position, rotation) in [("wrong-homing", 0.015, 0.0f64), ("wrong-homing-rotation", 0.0, 2.5)] {
-        let s = with(name, Scheme::JointSpace);
+    let cases = [
+        ("wrong-homing", Scheme::TaskSpace, Some((2.0, 2.6))),
+        ("wrong-homing", Scheme::JointSpace, Some((2.0, 2.6))),
+        ("wrong-homing-rotation", Scheme::TaskSpace, Some((3.3, 3.9))),
+        ("wrong-homing-rotation", Scheme::JointSpace, None),
+    ];
+    for (name, scheme, caught) in cases {
+        let s = with(name, scheme);
         let o = run_and_write(&s, &config);
         let f = figures(&o, 0.0);
         report(&s.name, &f);
-        assert_eq!(states(&o), vec![(State::Enabled, Reason::None, Reason::None)], "{}", s.name);
-        assert!(f.residual < 5.0e-3, "{}: {}", s.name, f.residual);
-        assert!(f.position_error > position, "{}: {}", s.name, f.position_error);
-        assert!(f.rotation_error > rotation.to_radians(), "{}: {}", s.name, f.rotation_error);
-        let s = with(name, Scheme::TaskSpace);
-        let o = run_and_write(&s, &config);
-        report(&s.name, &figures(&o, 0.0));
-        let last = *o.transitions.last().unwrap();
-        assert_eq!((last.1, last.2), (State::Fault, Reason::Tracking), "{}: {:?}", s.name, o.transitions);
-        assert!(last.0 > 3.5, "{}: {last:?}", s.name);
+        match caught {
+            Some((after, before)) => {
+                assert_eq!(states(&o)[1..], [(State::Fault, Reason::Estimator, Reason::None)], "{}", s.name);
+                let at = f.fault_at.unwrap();
+                assert!(at > after && at < before, "{}: {at}", s.name);
+                let locked = f.locked_at.unwrap();
+                assert!(locked - at <= 0.021 + 1e-9, "{}: {locked}", s.name);
+            }
+            None => {
+                assert_eq!(states(&o), vec![(State::Enabled, Reason::None, Reason::None)], "{}", s.name);
+                assert!(f.residual > 0.5e-3 && f.residual < 1.0e-3, "{}: {}", s.name, f.residual);
+                assert!(f.rotation_error > 4.0f64.to_radians(), "{}: {}", s.name, f.rotation_error);
+            }
+        }
     }
 }

@@ -100,8 +100,7 @@ mod app {
             let report = control.step(&*clock, drives, overrun);
             control.record_cost(clock::ticks_to_units(clock.since(start)));
             // The encoders' stand-in (QEMU), outside the measured step.
-            let tracked = control.last_feasible_setpoint().map(|s| s.pose);
-            drives.advance(control.controller().robot(), tracked.as_ref());
+            drives.advance(control.last_feasible_lengths());
             if let Some(telemetry) = report.telemetry {
                 if let Ok(n) = encode(&DeviceMessage::Telemetry(telemetry), &mut frame) {
                     if serial::queue_frame(tx, &frame[..n]) {
