@@ -26,6 +26,7 @@ use crate::encoder::{EncoderScale, Homing};
 use crate::estimator::{Estimate, EstimateError, Estimator, EstimatorSettings, OwnedReference, Reference};
 use crate::feedback::{length_rates, FeedbackLimits, Gains, JointGains, JointPid, Scheme, TaskPid};
 use crate::link::{Event, JumpLimits, Link, SetpointRange};
+use crate::point_buffer::{Played, PointBuffer};
 use crate::robot::ControlRobot;
 use crate::setpoint::{Pose6, Setpoint};
 use crate::supervisor::{Requests, SafetyLimits, SetpointStatus, Supervisor};
@@ -182,6 +183,8 @@ pub struct ControlLoop {
     /// The fraction of the task-space feedback wrench applied
     /// ([`FEEDBACK_RECOVERY_PER_CYCLE`]).
     feedback_scale: f32,
+    /// The trajectory points waiting to be played.
+    buffer: PointBuffer,
 }
 
 impl ControlLoop {
@@ -230,6 +233,7 @@ impl ControlLoop {
             tracking_limit: Some(DEFAULT_TRACKING_LIMIT),
             feasible_lengths: None,
             feedback_scale: 1.0,
+            buffer: PointBuffer::new(),
             controller: Controller::new(robot, method)?,
             supervisor: Supervisor::new(limits),
             link: Link::new(range),
@@ -427,7 +431,39 @@ impl ControlLoop {
 
     fn apply(&mut self, event: Event) {
         match event {
-            Event::Setpoint(s) => self.newest = Newest::Good(s, self.cycle),
+            // A setpoint of its own ends a buffered stream.
+            Event::Setpoint(s) => {
+                self.buffer.clear();
+                self.newest = Newest::Good(s, self.cycle);
+            }
+            Event::Point(p) => {
+                let bound = matches!(self.supervisor.state(), State::Enabled | State::Holding);
+                // While bound, a stream's first point must follow from the
+                // setpoint the winches have, over the start delay and its age.
+                let joins = match (self.buffer.active(), bound, self.newest, self.link.jump_limits()) {
+                    (false, true, Newest::Good(s, arrived), Some(limits)) => {
+                        let dt = (self.cycle.wrapping_sub(arrived) + crate::point_buffer::START_DELAY_CYCLES)
+                            as f32
+                            * limits.period_s;
+                        limits.follows(&s.pose.into(), &s.velocity.into(), &p.pose, &p.velocity, dt)
+                    }
+                    _ => true,
+                };
+                let pushed = if joins {
+                    self.buffer.push(&p, self.cycle, bound, self.link.jump_limits())
+                } else {
+                    Err(Rejection::Jump)
+                };
+                if let Err(why) = pushed {
+                    // Counted as its rule says; `accepted` counted the frame.
+                    self.counters.accepted = self.counters.accepted.wrapping_sub(1);
+                    self.counters.reject(why);
+                    if why == Rejection::Jump {
+                        self.buffer.refuse();
+                    }
+                }
+            }
+            Event::BadPoint => self.buffer.refuse(),
             Event::BadSetpoint => self.newest = Newest::Bad,
             Event::Enable => {
                 if self.homing.is_some() {
@@ -554,6 +590,16 @@ impl ControlLoop {
             if let Some(pid) = &mut self.joint_pid {
                 pid.reset();
             }
+        }
+        // The buffer's setpoint for this cycle (none while it waits or is
+        // dry: the last one ages, and goes stale; bad where the stream's
+        // next point was refused or the interpolation leaves the range).
+        match self.buffer.sample(now) {
+            Some(Played::Setpoint(s)) if self.link.range().contains(&s.to_wire()) => {
+                self.newest = Newest::Good(s, now);
+            }
+            Some(_) => self.newest = Newest::Bad,
+            None => {}
         }
         let mut solved = None;
         let mut estimate = None;
@@ -716,6 +762,10 @@ impl ControlLoop {
         if faulted {
             self.counters.faults = self.counters.faults.wrapping_add(1);
         }
+        // A stream ends with the motion it drove.
+        if faulted || decisions.disabled {
+            self.buffer.clear();
+        }
 
         let state = self.supervisor.state();
         let reason = self.supervisor.reason();
@@ -757,6 +807,8 @@ impl ControlLoop {
                     } else {
                         100
                     },
+                    buffer_fill: self.buffer.fill(now).min(255) as u8,
+                    buffer_lead_ms: self.buffer.lead_ms(now).min(u32::from(u16::MAX)) as u16,
                 }
             });
         self.cycle = self.cycle.wrapping_add(1);

@@ -11,6 +11,8 @@
 //! * [`control_loop`]: the three together, one call per millisecond;
 //! * [`feedback`]: the two feedback schemes (task-space PID on the
 //!   estimated pose, joint-space PID on the cable lengths);
+//! * [`point_buffer`]: timed trajectory points in, one cubic Hermite
+//!   setpoint per cycle out (what the link's budget allows);
 //! * [`drives`]: the winch trait (torques and brakes out, encoder
 //!   readings in), with an embedded-hal 1.0 PWM adapter;
 //! * [`encoder`]: encoder counts to cable lengths, and the homing offsets;
@@ -35,6 +37,7 @@ pub mod encoder;
 pub mod estimator;
 pub mod feedback;
 pub mod link;
+pub mod point_buffer;
 pub mod robot;
 pub mod setpoint;
 pub mod stats;

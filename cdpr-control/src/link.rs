@@ -135,16 +135,23 @@ impl JumpLimits {
     /// The firmware's: 1 ms period, 50 mm, 0.1 rad.
     pub const DEFAULT: Self = Self { period_s: 0.001, position: 0.05, angle: 0.1 };
 
+    /// Whether `(p1, v1)` follows from `(p0, v0)` exactly `dt` s later by
+    /// the trapezoid rule, within the tolerances: how a trajectory point
+    /// must follow the one before it (`crate::point_buffer`).
+    pub fn follows(&self, p0: &[f32; 6], v0: &[f32; 6], p1: &[f32; 6], v1: &[f32; 6], dt: f32) -> bool {
+        (0..6).all(|i| {
+            let tolerance = if i < 3 { self.position } else { self.angle };
+            let predicted = p0[i] + 0.5 * (v0[i] + v1[i]) * dt;
+            libm::fabsf(p1[i] - predicted) <= tolerance
+        })
+    }
+
     /// Whether `s` follows from `reference`, `cycles` later. Bounded: six
     /// intervals intersected; the values are finite (range-checked first).
     fn consistent(&self, reference: &Reference, s: &cdpr_protocol::Setpoint, cycles: u32) -> bool {
         let elapsed = cycles.max(1) as f32 * self.period_s;
-        let tolerance = |i: usize| if i < 3 { self.position } else { self.angle };
         // A stream in real time: `dt` is the time since the reference.
-        let on_time = (0..6).all(|i| {
-            let predicted = reference.pose[i] + 0.5 * (reference.velocity[i] + s.velocity[i]) * elapsed;
-            libm::fabsf(s.pose[i] - predicted) <= tolerance(i)
-        });
+        let on_time = self.follows(&reference.pose, &reference.velocity, &s.pose, &s.velocity, elapsed);
         on_time || self.some_time_explains(reference, s, elapsed)
     }
 
@@ -213,6 +220,13 @@ pub enum Event {
     Home(crate::setpoint::Pose6),
     /// Switch to this feedback scheme (already checked to exist).
     SelectFeedback(crate::feedback::Scheme),
+    /// A trajectory point for the buffer (finite, within the range's
+    /// pose and speed limits); the buffer applies its own rules
+    /// (`crate::point_buffer`).
+    Point(cdpr_protocol::TrajectoryPoint),
+    /// A trajectory point with a non-finite or out-of-range value; it is
+    /// not used (the buffer marks its stream: `PointBuffer::refuse`).
+    BadPoint,
 }
 
 /// The receiving side of the serial link.
@@ -301,6 +315,19 @@ impl Link {
                     return None;
                 }
                 Event::Home(crate::setpoint::Pose6::from(pose))
+            }
+            HostMessage::Point(p) => {
+                let as_setpoint = cdpr_protocol::Setpoint {
+                    seq: 0,
+                    pose: p.pose,
+                    velocity: p.velocity,
+                    acceleration: [0.0; 6],
+                };
+                if !self.range.contains(&as_setpoint) {
+                    counters.reject(Rejection::Range);
+                    return Some(Event::BadPoint);
+                }
+                Event::Point(p)
             }
             HostMessage::SelectFeedback(id) => match crate::feedback::Scheme::from_wire_id(id) {
                 Some(scheme) => Event::SelectFeedback(scheme),

@@ -29,6 +29,23 @@ pub struct Setpoint {
     pub acceleration: [f32; DOF],
 }
 
+/// A timed trajectory point for the board's buffer ([`HostMessage::Point`]):
+/// the pose and its velocity at trajectory time `time_ms`. The board
+/// interpolates between consecutive points with a cubic Hermite at every
+/// control cycle (see `cdpr-control`'s `point_buffer`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TrajectoryPoint {
+    /// Trajectory time, ms (the stream's own clock: the board plays the
+    /// stream's first point a fixed delay after it arrives and the others
+    /// at their times from there; wraps like serial numbers).
+    pub time_ms: u32,
+    /// `[x, y, z, rx, ry, rz]`, m and rad.
+    pub pose: [f32; DOF],
+    /// Time derivative of `pose`, m/s and rad/s.
+    pub velocity: [f32; DOF],
+}
+
 /// Host to firmware.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -65,6 +82,13 @@ pub enum HostMessage {
     /// Disabled only ([`Rejection::State`]); another number is
     /// [`Rejection::Range`].
     SelectFeedback(u8),
+    /// A trajectory point for the board's buffer (tag 8): the link's
+    /// budget (the firmware README) has room for points at 50-250 Hz, not
+    /// for a [`HostMessage::Setpoint`] every millisecond. A point must be
+    /// later than the one before it and not in the past of the buffer's
+    /// play time ([`Rejection::Late`]), the buffer must have room
+    /// ([`Rejection::BufferFull`]); a `Setpoint` empties the buffer.
+    Point(TrajectoryPoint),
 }
 
 /// The safety state machine's states (see the firmware README's diagram).
@@ -180,6 +204,13 @@ pub enum Rejection {
     /// out because a drive could not be read (tag 9; counted in
     /// `rejected_state`, which keeps the counters' layout).
     Homing,
+    /// A trajectory point not later than the buffer's last, or whose time
+    /// the buffer has already played (tag 10; counted in `rejected_order`).
+    Late,
+    /// A trajectory point for a full buffer, or more than the longest
+    /// segment after the one before it (tag 11; counted in
+    /// `rejected_order`).
+    BufferFull,
 }
 
 impl Rejection {
@@ -196,6 +227,8 @@ impl Rejection {
             Rejection::State => "state",
             Rejection::MethodOverBudget => "method-over-budget",
             Rejection::Homing => "homing",
+            Rejection::Late => "late",
+            Rejection::BufferFull => "buffer-full",
         }
     }
 }
@@ -247,7 +280,7 @@ impl Counters {
             Rejection::Framing => &mut self.rejected_framing,
             Rejection::Crc => &mut self.rejected_crc,
             Rejection::Decode => &mut self.rejected_decode,
-            Rejection::Order => &mut self.rejected_order,
+            Rejection::Order | Rejection::Late | Rejection::BufferFull => &mut self.rejected_order,
             Rejection::Range => &mut self.rejected_range,
             Rejection::Jump => &mut self.rejected_jump,
             Rejection::State | Rejection::Homing => &mut self.rejected_state,
@@ -312,6 +345,11 @@ pub struct Telemetry {
     /// feasible torques held); the next cycles carry half as much each
     /// until it solves (nothing below 1/16), then 2 % more a cycle.
     pub feedback_scale: u8,
+    /// Trajectory points waiting in the board's buffer (not yet played).
+    pub buffer_fill: u8,
+    /// How far the buffer's last point lies ahead of its play time, ms (0
+    /// when it ran dry or holds no stream).
+    pub buffer_lead_ms: u16,
 }
 
 /// Firmware to host.
