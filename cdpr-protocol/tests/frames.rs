@@ -5,7 +5,7 @@
 
 use cdpr_protocol::{
     crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Reason, Rejection,
-    Setpoint, State, Telemetry, CABLES, MAX_FRAME, MAX_PAYLOAD,
+    Setpoint, State, Telemetry, TrajectoryPoint, CABLES, MAX_FRAME, MAX_PAYLOAD,
 };
 use proptest::prelude::*;
 
@@ -85,6 +85,8 @@ fn largest_message_fits() {
         unreadable_drive: Some(u8::MAX),
         tension_limited: u8::MAX,
         feedback_scale: u8::MAX,
+        buffer_fill: u8::MAX,
+        buffer_lead_ms: u16::MAX,
     };
     let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
     assert!(frame.len() <= MAX_FRAME, "{} bytes", frame.len());
@@ -92,7 +94,7 @@ fn largest_message_fits() {
     // frame less the COBS code byte, the CRC and the delimiter.
     let mut buf = [0u8; MAX_PAYLOAD];
     let payload = postcard::to_slice(&DeviceMessage::Telemetry(telemetry), &mut buf).unwrap();
-    assert_eq!(payload.len(), 186);
+    assert_eq!(payload.len(), 190);
     assert!(payload.len() <= MAX_PAYLOAD);
     let decoded = feed::<DeviceMessage>(&frame);
     let Some(Ok(DeviceMessage::Telemetry(back))) = decoded.first().cloned() else { panic!("{decoded:?}") };
@@ -104,6 +106,21 @@ fn largest_message_fits() {
 }
 
 /// Raw payload bytes with a correct CRC, COBS-framed by the test itself.
+#[test]
+fn a_trajectory_point_frame_is_at_most_60_bytes() {
+    // The link budget (firmware README) counts 60 bytes per point: tag 8,
+    // the time as a varint (5 bytes at most), 12 floats, CRC, COBS, 0x00.
+    let point = TrajectoryPoint { time_ms: u32::MAX, pose: [f32::MAX; 6], velocity: [f32::MIN; 6] };
+    let frame = frame_of(&HostMessage::Point(point));
+    assert_eq!(frame.len(), 60);
+    let decoded = feed::<HostMessage>(&frame);
+    assert_eq!(decoded, vec![Ok(HostMessage::Point(point))]);
+    // The tag is the enum's ninth: 8.
+    let mut buf = [0u8; MAX_PAYLOAD];
+    let payload = postcard::to_slice(&HostMessage::Point(point), &mut buf).unwrap();
+    assert_eq!(payload[0], 8);
+}
+
 fn framed_raw(payload: &[u8]) -> Vec<u8> {
     let mut raw = payload.to_vec();
     raw.extend(crc32(payload).to_le_bytes());
@@ -179,6 +196,9 @@ fn any_host_message() -> impl Strategy<Value = HostMessage> {
         any::<u8>().prop_map(HostMessage::SelectMethod),
         prop::array::uniform6(any_f32()).prop_map(HostMessage::Home),
         any::<u8>().prop_map(HostMessage::SelectFeedback),
+        (any::<u32>(), prop::array::uniform6(any_f32()), prop::array::uniform6(any_f32())).prop_map(
+            |(time_ms, pose, velocity)| HostMessage::Point(TrajectoryPoint { time_ms, pose, velocity })
+        ),
     ]
 }
 
@@ -197,6 +217,11 @@ fn same_bits(a: &HostMessage, b: &HostMessage) -> bool {
             bits(x) == bits(y)
         }
         (HostMessage::Home(x), HostMessage::Home(y)) => x.map(f32::to_bits) == y.map(f32::to_bits),
+        (HostMessage::Point(x), HostMessage::Point(y)) => {
+            let bits =
+                |p: &TrajectoryPoint| (p.time_ms, p.pose.map(f32::to_bits), p.velocity.map(f32::to_bits));
+            bits(x) == bits(y)
+        }
         _ => a == b,
     }
 }
