@@ -89,7 +89,7 @@ pub const DEFAULT_JOINT_INTEGRAL_MAX: f32 = 10.0;
 /// 0x00 storms, 0xFF runs and noise 17 to 29 a byte), so with the worst
 /// step the cycle stays within a third of the 1 ms period (125 000
 /// instructions under QEMU). 256 bytes a millisecond is 22 times what
-/// 115 200 baud carries (11.5 bytes per ms) and three setpoint frames per
+/// 460 800 baud carries (46 bytes per ms) and three setpoint frames per
 /// cycle; what arrives faster waits in the receive queue, and what finds
 /// the queue full is dropped and counted (`Counters::dropped_bytes`).
 pub const RECEIVE_BUDGET: usize = 256;

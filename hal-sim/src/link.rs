@@ -1,10 +1,11 @@
 //! The simulated serial link and clock, and the host at the far end.
 //!
 //! * [`SerialLink`]: two byte queues (host to device, device to host) with a
-//!   line rate: at most `bytes_per_cycle` bytes cross each way per control
-//!   cycle (100 at 1 Mbit/s 8N1 and 1 kHz), the rest wait their turn. The
-//!   device side feeds every byte to `ControlLoop::receive_byte`, exactly
-//!   as the firmware's USART1 task does.
+//!   line rate: the board's USART1 at [`BAUD`] (460 800 baud 8N1: 46.08
+//!   bytes per 1 ms cycle, each way) passes whole bytes as their time
+//!   accrues, the rest wait their turn. The device side feeds every byte to
+//!   `ControlLoop::receive_byte`, exactly as the firmware's USART1 task
+//!   does.
 //! * [`Host`]: encodes `cdpr_protocol` frames into the link and decodes the
 //!   telemetry frames coming back.
 //! * [`SimClock`]: simulated time as a `cdpr_control::TickCounter`
@@ -17,21 +18,49 @@ use std::time::Instant;
 use cdpr_control::TickCounter;
 use cdpr_protocol::{encode, DeviceMessage, FrameDecoder, FrameError, HostMessage, Telemetry, MAX_FRAME};
 
-/// Bytes per 1 ms cycle at 1 Mbit/s with 10 bits per byte (8N1).
-pub const BYTES_PER_CYCLE_1MBAUD: usize = 100;
+/// The board's line rate (`firmware::serial::BAUD`), bits per second.
+pub const BAUD: u32 = 460_800;
 
 /// Two byte queues with a line rate.
 #[derive(Debug, Clone)]
 pub struct SerialLink {
     to_device: VecDeque<u8>,
     to_host: VecDeque<u8>,
-    bytes_per_cycle: usize,
+    /// Bytes per 1 ms cycle (10 bits per byte, 8N1).
+    bytes_per_cycle: f64,
+    /// Line time accrued but not yet used, bytes, each way.
+    credit_to_device: f64,
+    credit_to_host: f64,
 }
 
 impl SerialLink {
-    /// An empty link that moves at most `bytes_per_cycle` bytes each way per cycle.
-    pub fn new(bytes_per_cycle: usize) -> Self {
-        Self { to_device: VecDeque::new(), to_host: VecDeque::new(), bytes_per_cycle }
+    /// An empty link at `baud` (8N1) with a 1 ms cycle.
+    pub fn at_baud(baud: u32) -> Self {
+        Self {
+            to_device: VecDeque::new(),
+            to_host: VecDeque::new(),
+            bytes_per_cycle: f64::from(baud) / 10.0 / 1000.0,
+            credit_to_device: 0.0,
+            credit_to_host: 0.0,
+        }
+    }
+
+    /// Bytes the line carries each way per cycle.
+    pub fn bytes_per_cycle(&self) -> f64 {
+        self.bytes_per_cycle
+    }
+
+    /// Whole bytes of `queue` the line passes this cycle; an idle line
+    /// saves no time up (a UART does not send faster after a pause).
+    fn pass(queue: &mut VecDeque<u8>, credit: &mut f64, rate: f64) -> Vec<u8> {
+        if queue.is_empty() {
+            *credit = 0.0;
+            return Vec::new();
+        }
+        *credit += rate;
+        let n = (*credit as usize).min(queue.len());
+        *credit -= n as f64;
+        queue.drain(..n).collect()
     }
 
     /// Queues bytes from the host.
@@ -46,14 +75,17 @@ impl SerialLink {
 
     /// The bytes that reach the device this cycle.
     pub fn device_read(&mut self) -> Vec<u8> {
-        let n = self.to_device.len().min(self.bytes_per_cycle);
-        self.to_device.drain(..n).collect()
+        Self::pass(&mut self.to_device, &mut self.credit_to_device, self.bytes_per_cycle)
     }
 
     /// The bytes that reach the host this cycle.
     pub fn host_read(&mut self) -> Vec<u8> {
-        let n = self.to_host.len().min(self.bytes_per_cycle);
-        self.to_host.drain(..n).collect()
+        Self::pass(&mut self.to_host, &mut self.credit_to_host, self.bytes_per_cycle)
+    }
+
+    /// Bytes waiting for the host.
+    pub fn pending_to_host(&self) -> usize {
+        self.to_host.len()
     }
 
     /// Bytes waiting for the device.

