@@ -5,7 +5,7 @@
 
 use std::process::ExitCode;
 
-use cdpr::{forward, profiles, solve, workspace, CliError};
+use cdpr::{forward, profiles, solve, stream, workspace, CliError};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -31,6 +31,8 @@ enum Command {
     Compare(profiles::CompareArgs),
     /// Poses from measured cable lengths (forward kinematics): CSV in, CSV out.
     Forward(forward::ForwardArgs),
+    /// Operate a board: home, enable, stream a trajectory into its buffer, disable.
+    Stream(stream::StreamArgs),
 }
 
 fn run(cli: Cli) -> Result<(), CliError> {
@@ -52,6 +54,13 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Forward(args) => {
             let report = forward::run(&args)?;
             println!("{report}; wrote {}", args.out.display());
+        }
+        Command::Stream(args) => {
+            // Ctrl-C: Disable, wait for the ramp, then exit.
+            static INTERRUPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+            let _ = ctrlc::set_handler(|| INTERRUPT.store(true, std::sync::atomic::Ordering::Relaxed));
+            let report = stream::run(&args, &mut std::io::stderr(), &INTERRUPT)?;
+            println!("{report}");
         }
         Command::Compare(args) => {
             let report = profiles::run_compare(&args)?;

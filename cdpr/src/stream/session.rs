@@ -1,0 +1,336 @@
+//! The conversation with a board: telemetry on, home, fill the buffer,
+//! enable once the stream plays, keep the buffer ahead of the board's
+//! play time (flow control from the board's own telemetry, so a board on
+//! a slower or faster clock, as under QEMU, is served alike), disable at
+//! the end or on an interrupt and wait for the torque ramp.
+
+use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use cdpr_control::point_buffer::START_DELAY_CYCLES;
+use cdpr_control::protocol::{
+    encode, DeviceMessage, FrameDecoder, HostMessage, Reason, State, Telemetry, TrajectoryPoint, MAX_FRAME,
+};
+
+use super::transport::{Pacer, Transport};
+
+/// What the session does and how long it waits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    /// How far ahead of the board's play time the host keeps its points, ms.
+    pub lead_ms: u32,
+    /// `TelemetryPeriod`: a sample every this many cycles.
+    pub telemetry_period: u16,
+    /// A board silent this long is reported as not answering.
+    pub silence: Duration,
+    /// How long a request (home, enable, disable) may take to show.
+    pub request_timeout: Duration,
+    /// `SelectFeedback` before enabling, if any.
+    pub feedback: Option<u8>,
+    /// `SelectMethod` before enabling, if any.
+    pub method: Option<u8>,
+    /// The line rate the host paces its bytes to, baud (8N1).
+    pub baud: u32,
+}
+
+impl Options {
+    /// 80 ms lead, telemetry every 10 cycles, silence 500 ms, requests
+    /// 1 s, the board's defaults, 460 800 baud.
+    pub const DEFAULT: Self = Self {
+        lead_ms: 80,
+        telemetry_period: 10,
+        silence: Duration::from_millis(500),
+        request_timeout: Duration::from_secs(1),
+        feedback: None,
+        method: None,
+        baud: 460_800,
+    };
+}
+
+/// How a session ended without an error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ending {
+    /// Every point played; disabled, the ramp finished.
+    Completed,
+    /// Interrupted (Ctrl-C): disabled, the ramp finished.
+    Interrupted,
+}
+
+/// Why a session failed.
+#[derive(Debug)]
+pub enum SessionError {
+    /// No telemetry for this long.
+    Silent(Duration),
+    /// The board entered Fault: the reason and the hold reason.
+    Fault(Reason, Reason),
+    /// A request did not take effect: what, and the board's last rejection.
+    Refused(&'static str, String),
+    /// The board is not where a session can start.
+    NotReady(String),
+    /// Reading or writing the link failed.
+    Io(io::Error),
+}
+
+impl std::fmt::Display for SessionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SessionError::Silent(d) => {
+                write!(f, "the board stopped answering (no telemetry for {:.1} s)", d.as_secs_f64())
+            }
+            SessionError::Fault(r, h) if *r == Reason::HoldTimeout => {
+                write!(f, "the board faulted: {} (held for {})", r.name(), h.name())
+            }
+            SessionError::Fault(r, _) => write!(f, "the board faulted: {}", r.name()),
+            SessionError::Refused(what, why) => {
+                write!(f, "{what} refused by the board (last rejection: {why})")
+            }
+            SessionError::NotReady(why) => write!(f, "{why}"),
+            SessionError::Io(e) => write!(f, "link: {e}"),
+        }
+    }
+}
+
+impl From<io::Error> for SessionError {
+    fn from(e: io::Error) -> Self {
+        SessionError::Io(e)
+    }
+}
+
+/// Whoever watches the session: every telemetry sample as it arrives
+/// (with the host's time since the start, s).
+pub trait Observer {
+    /// A telemetry sample.
+    fn telemetry(&mut self, host_time: f64, t: &Telemetry, progress: Progress);
+}
+
+/// How far the stream is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Progress {
+    /// Points sent so far.
+    pub sent: usize,
+    /// Points in the plan.
+    pub total: usize,
+    /// The board's play time, ms (its `setpoint_seq` while it plays).
+    pub played_ms: u32,
+    /// The plan's last time, ms.
+    pub end_ms: u32,
+}
+
+/// A session over a transport.
+pub struct Session {
+    link: Box<dyn Transport>,
+    pacer: Pacer,
+    decoder: FrameDecoder,
+    options: Options,
+    start: Instant,
+    last_heard: Instant,
+    last: Option<Telemetry>,
+}
+
+impl Session {
+    /// A session on `link`.
+    pub fn new(link: Box<dyn Transport>, options: Options) -> Self {
+        let now = Instant::now();
+        Self {
+            link,
+            pacer: Pacer::new(options.baud),
+            decoder: FrameDecoder::new(),
+            options,
+            start: now,
+            last_heard: now,
+            last: None,
+        }
+    }
+
+    /// The newest telemetry sample.
+    pub fn last(&self) -> Option<&Telemetry> {
+        self.last.as_ref()
+    }
+
+    /// Sends one message, paced to the line rate.
+    pub fn send(&mut self, message: &HostMessage) -> Result<(), SessionError> {
+        let mut frame = [0u8; MAX_FRAME];
+        let n = encode(message, &mut frame).map_err(|e| io::Error::other(format!("encode: {e:?}")))?;
+        self.pacer.wait_for(n);
+        self.link.write_all_bytes(&frame[..n])?;
+        Ok(())
+    }
+
+    /// Reads what arrived; returns the samples, reports them, and fails
+    /// if the board has been silent too long.
+    fn poll(&mut self, observer: &mut dyn Observer, progress: Progress) -> Result<usize, SessionError> {
+        let mut buf = [0u8; 512];
+        let n = self.link.read_some(&mut buf)?;
+        let mut got = 0;
+        for &b in &buf[..n] {
+            if let Some(Ok(DeviceMessage::Telemetry(t))) = self.decoder.push::<DeviceMessage>(b) {
+                self.last_heard = Instant::now();
+                let mut progress = progress;
+                if t.buffer_fill > 0 || t.buffer_lead_ms > 0 {
+                    progress.played_ms = t.setpoint_seq;
+                }
+                observer.telemetry(self.start.elapsed().as_secs_f64(), &t, progress);
+                self.last = Some(t);
+                got += 1;
+            }
+        }
+        if self.last_heard.elapsed() > self.options.silence {
+            return Err(SessionError::Silent(self.last_heard.elapsed()));
+        }
+        Ok(got)
+    }
+
+    /// Polls until `done` holds for a sample, within `timeout`.
+    fn wait_for(
+        &mut self,
+        observer: &mut dyn Observer,
+        progress: Progress,
+        timeout: Duration,
+        mut done: impl FnMut(&Telemetry) -> bool,
+    ) -> Result<bool, SessionError> {
+        let until = Instant::now() + timeout;
+        while Instant::now() < until {
+            self.poll(observer, progress)?;
+            if self.last.as_ref().is_some_and(&mut done) {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    fn rejection(&self) -> String {
+        self.last.map_or_else(|| "none".into(), |t| t.counters.last_rejection.name().to_string())
+    }
+
+    /// Connects: telemetry on, the first sample within the silence limit.
+    pub fn connect(&mut self, observer: &mut dyn Observer) -> Result<Telemetry, SessionError> {
+        self.last_heard = Instant::now();
+        self.send(&HostMessage::TelemetryPeriod(self.options.telemetry_period))?;
+        let silence = self.options.silence;
+        self.wait_for(observer, Progress::default(), silence, |_| true)?;
+        self.last.ok_or(SessionError::Silent(silence))
+    }
+
+    /// Streams `points` (times from 0 ms): homes at the first pose, selects
+    /// the feedback and method if asked, fills the buffer, enables once the
+    /// stream plays, keeps the buffer `lead_ms` ahead, and disables when
+    /// the last point has played or `interrupt` is set.
+    pub fn stream(
+        &mut self,
+        points: &[TrajectoryPoint],
+        observer: &mut dyn Observer,
+        interrupt: &AtomicBool,
+    ) -> Result<Ending, SessionError> {
+        let first = self.connect(observer)?;
+        let total = points.len();
+        let end_ms = points.last().map_or(0, |p| p.time_ms);
+        let mut progress = Progress { sent: 0, total, played_ms: 0, end_ms };
+        match first.state {
+            State::Disabled => {}
+            State::Fault => {
+                return Err(SessionError::NotReady(format!(
+                    "the board is in fault ({}); clear it first",
+                    first.reason.name()
+                )))
+            }
+            s => {
+                return Err(SessionError::NotReady(format!(
+                    "the board is {} (another host streams?)",
+                    s.name()
+                )))
+            }
+        }
+        let timeout = self.options.request_timeout;
+        let start = points.first().ok_or_else(|| SessionError::NotReady("nothing to stream".into()))?;
+        self.send(&HostMessage::Home(start.pose))?;
+        if !self.wait_for(observer, progress, timeout, |t| t.homed)? {
+            return Err(SessionError::Refused("Home", self.rejection()));
+        }
+        if let Some(f) = self.options.feedback {
+            self.send(&HostMessage::SelectFeedback(f))?;
+        }
+        if let Some(m) = self.options.method {
+            self.send(&HostMessage::SelectMethod(m))?;
+            let want = m;
+            if !self.wait_for(observer, progress, timeout, |t| t.method == want)? {
+                return Err(SessionError::Refused("SelectMethod", self.rejection()));
+            }
+        }
+        if let Some(f) = self.options.feedback {
+            if !self.wait_for(observer, progress, timeout, |t| t.feedback == f)? {
+                return Err(SessionError::Refused("SelectFeedback", self.rejection()));
+            }
+        }
+        // The stream: flow control on the board's play time. Until the
+        // board reports it, the play time is taken as the first point's
+        // less the start delay.
+        let t0 = start.time_ms;
+        let mut played = t0.saturating_sub(START_DELAY_CYCLES);
+        let mut enable_sent: Option<Instant> = None;
+        let mut enabled = false;
+        let mut started = false;
+        loop {
+            if interrupt.load(Ordering::Relaxed) {
+                self.disable(observer, progress)?;
+                return Ok(Ending::Interrupted);
+            }
+            while progress.sent < total && points[progress.sent].time_ms <= played + self.options.lead_ms {
+                self.send(&HostMessage::Point(points[progress.sent]))?;
+                progress.sent += 1;
+            }
+            self.poll(observer, progress)?;
+            let Some(t) = self.last else { continue };
+            // The board's play time is its setpoint number once the stream
+            // plays (and stays so when the buffer has played out).
+            let playing = t.buffer_fill > 0 || t.buffer_lead_ms > 0;
+            started |= playing;
+            if started && (t0..=end_ms).contains(&t.setpoint_seq) {
+                played = played.max(t.setpoint_seq);
+            }
+            progress.played_ms = played;
+            match t.state {
+                State::Fault => return Err(SessionError::Fault(t.reason, t.hold_reason)),
+                State::Enabled | State::Holding => enabled = true,
+                State::Disabled if enabled => {
+                    return Err(SessionError::NotReady("the board disabled itself (another host?)".into()))
+                }
+                State::Disabled => {}
+            }
+            if !enabled {
+                match enable_sent {
+                    None if playing && t.solved => {
+                        self.send(&HostMessage::Enable)?;
+                        enable_sent = Some(Instant::now());
+                    }
+                    Some(at) if at.elapsed() > timeout => {
+                        return Err(SessionError::Refused("Enable", self.rejection()));
+                    }
+                    _ => {}
+                }
+            }
+            let all_played = progress.sent == total && played >= end_ms && !playing;
+            if enabled && all_played {
+                self.disable(observer, progress)?;
+                return Ok(Ending::Completed);
+            }
+        }
+    }
+
+    /// Disable, then wait for Disabled with the torque ramp finished.
+    fn disable(&mut self, observer: &mut dyn Observer, progress: Progress) -> Result<(), SessionError> {
+        self.send(&HostMessage::Disable)?;
+        // The ramp is 200 ms; allow the request timeout on top.
+        let timeout = self.options.request_timeout + Duration::from_millis(200);
+        let done = self.wait_for(observer, progress, timeout, |t| {
+            t.state == State::Disabled && t.torques.iter().all(|&x| x == 0.0)
+        })?;
+        if !done {
+            return match self.last {
+                Some(t) if t.state == State::Fault => Err(SessionError::Fault(t.reason, t.hold_reason)),
+                _ => Err(SessionError::Refused("Disable", self.rejection())),
+            };
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,317 @@
+//! `cdpr stream` against a board on a TCP socket: the firmware's control
+//! loop (`cdpr_control::ControlLoop`, suspended-8) run here in real time,
+//! 1 ms a cycle, with winches that follow its feasible setpoint, bytes in
+//! and telemetry out as on the board. Checks a completed stream, Ctrl-C, a
+//! fault, a board that goes silent, and bad input that sends nothing.
+
+mod common;
+
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use cdpr::stream::session::{Ending, Options, Session, SessionError};
+use cdpr::stream::{self, StreamArgs};
+use cdpr_control::link::SetpointRange;
+use cdpr_control::protocol::{encode, DeviceMessage, State, Telemetry, MAX_FRAME};
+use cdpr_control::supervisor::SafetyLimits;
+use cdpr_control::{ControlLoop, NoClock, WinchDrives, WinchReading, CABLES};
+use tension_core::Method;
+
+/// What the simulated board does wrong, from which cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Trouble {
+    None,
+    /// Its drives cannot be read from this cycle on (Fault `encoder`).
+    Unreadable(u32),
+    /// It stops sending telemetry from this cycle on (the socket stays open).
+    Silent(u32),
+}
+
+/// Winches that follow the loop's feasible lengths at once.
+struct Winches {
+    readings: [WinchReading; CABLES],
+    unreadable: bool,
+}
+
+impl WinchDrives for Winches {
+    type Error = ();
+    fn apply(&mut self, _: &[f32; CABLES]) -> Result<(), ()> {
+        Ok(())
+    }
+    fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
+        Ok(())
+    }
+    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), ()> {
+        if self.unreadable {
+            return Err(());
+        }
+        *readings = self.readings;
+        Ok(())
+    }
+}
+
+struct Board {
+    address: String,
+    thread: JoinHandle<BoardEnd>,
+    received: Arc<AtomicU32>,
+}
+
+/// What the board saw, at its end.
+#[derive(Debug)]
+struct BoardEnd {
+    telemetry: Vec<Telemetry>,
+    states: Vec<State>,
+}
+
+fn suspended8() -> cdpr_control::ControlRobot {
+    robot_file::RobotFile::load(common::robot("suspended-8")).and_then(|f| f.to_robot::<f32, 6, 8>()).unwrap()
+}
+
+/// A board listening on a free port; it runs until the host disconnects
+/// (or 20 s).
+fn board(trouble: Trouble) -> Board {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    let received = Arc::new(AtomicU32::new(0));
+    let counted = received.clone();
+    let thread = std::thread::spawn(move || {
+        let robot = suspended8();
+        let range = SetpointRange::for_robot(&robot);
+        let mut control = ControlLoop::new(robot, Method::Barycenter, range, SafetyLimits::DEFAULT).unwrap();
+        // The platform rests at the waypoints' first pose.
+        let start = cdpr_control::setpoint::Pose6::from([0.0, 0.0, 1.8, 0.0, 0.0, 0.0]);
+        let lengths = control.controller().robot().cables(&start).unwrap().lengths;
+        let mut winches = Winches { readings: [WinchReading::default(); CABLES], unreadable: false };
+        let set = |w: &mut Winches, control: &ControlLoop, l: &[f32]| {
+            for (i, r) in w.readings.iter_mut().enumerate() {
+                r.counts = control.encoder().counts_of(i, l[i], 0).unwrap();
+            }
+        };
+        set(&mut winches, &control, lengths.as_slice());
+        let (mut socket, _) = listener.accept().unwrap();
+        socket.set_nonblocking(true).unwrap();
+        let mut end = BoardEnd { telemetry: Vec::new(), states: Vec::new() };
+        let mut frame = [0u8; MAX_FRAME];
+        let t0 = Instant::now();
+        for k in 0..20_000u32 {
+            // Real time: cycle k starts at k ms.
+            let due = t0 + Duration::from_millis(u64::from(k));
+            if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+            let mut buf = [0u8; 256];
+            match socket.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => {
+                    counted.fetch_add(n as u32, Ordering::Relaxed);
+                    for &b in &buf[..n] {
+                        control.receive_byte(b);
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                Err(_) => break,
+            }
+            winches.unreadable = matches!(trouble, Trouble::Unreadable(at) if k >= at);
+            let report = control.step(&NoClock, &mut winches, false);
+            if let Some(l) = control.last_feasible_lengths().copied() {
+                set(&mut winches, &control, &l);
+            }
+            if end.states.last() != Some(&report.state) {
+                end.states.push(report.state);
+            }
+            if matches!(trouble, Trouble::Silent(at) if k >= at) {
+                continue;
+            }
+            if let Some(t) = report.telemetry {
+                end.telemetry.push(t);
+                let n = encode(&DeviceMessage::Telemetry(t), &mut frame).unwrap();
+                // Non-blocking: a full socket would be the host's problem.
+                let _ = socket.set_nonblocking(false);
+                if socket.write_all(&frame[..n]).is_err() {
+                    break;
+                }
+                let _ = socket.set_nonblocking(true);
+            }
+        }
+        end
+    });
+    Board { address, thread, received }
+}
+
+/// A waypoint table: from the board's start pose out and back in 2 s.
+fn waypoints(dir: &Path) -> std::path::PathBuf {
+    let path = dir.join("waypoints.csv");
+    std::fs::write(
+        &path,
+        "time,x,y,z,rx,ry,rz\n0.0,0.0,0.0,1.8,0.0,0.0,0.0\n1.0,0.15,-0.1,1.85,0.01,0.0,0.02\n2.0,0.0,0.0,1.8,0.0,0.0,0.0\n",
+    )
+    .unwrap();
+    path
+}
+
+fn args(dir: &Path, address: &str) -> StreamArgs {
+    StreamArgs {
+        robot: common::robot("suspended-8"),
+        poses: None,
+        waypoints: Some(waypoints(dir)),
+        rate: 100.0,
+        port: None,
+        baud: 460_800,
+        tcp: Some(address.to_string()),
+        telemetry: Some(dir.join("telemetry.csv")),
+        feedback: Some("joint".into()),
+        lead: 80,
+    }
+}
+
+#[test]
+fn a_stream_homes_enables_plays_every_point_and_disables() {
+    let dir = common::scratch("stream-complete");
+    let b = board(Trouble::None);
+    let a = args(&dir, &b.address);
+    let mut status = Vec::new();
+    let report = stream::run(&a, &mut status, &AtomicBool::new(false)).unwrap();
+    assert_eq!(report.ending, Ending::Completed);
+    assert_eq!(report.points, 201);
+    let end = b.thread.join().unwrap();
+    assert_eq!(end.states, vec![State::Disabled, State::Enabled, State::Disabled], "{:?}", end.states);
+    let last = end.telemetry.last().unwrap();
+    // Every point reached the board and none was refused; the trajectory
+    // played to its end (2000 ms) before the Disable.
+    assert_eq!(last.counters.rejected_order + last.counters.rejected_jump + last.counters.rejected_range, 0);
+    assert!(end.telemetry.iter().any(|t| t.state == State::Enabled && t.setpoint_seq == 2000));
+    assert!(last.torques.iter().all(|&x| x == 0.0) && last.brakes);
+    assert_eq!(last.feedback, 2);
+    // The buffer never ran dry while enabled, and the host kept it ahead.
+    let enabled: Vec<&Telemetry> = end.telemetry.iter().filter(|t| t.state == State::Enabled).collect();
+    let before_end = enabled.iter().filter(|t| t.setpoint_seq < 1900);
+    assert!(
+        before_end.clone().all(|t| t.buffer_fill >= 2),
+        "{:?}",
+        enabled.iter().map(|t| t.buffer_fill).collect::<Vec<_>>()
+    );
+    let lead_max = enabled.iter().map(|t| t.buffer_lead_ms).max().unwrap();
+    assert!(lead_max <= 80 + 20 + 10, "{lead_max}");
+    // The CSV has the header and a row per sample the host received.
+    let csv = std::fs::read_to_string(dir.join("telemetry.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap(), stream::telemetry_header().join(","));
+    assert_eq!(lines.count(), report.samples);
+    assert!(report.samples > 100);
+    // The status line was shown.
+    let status = String::from_utf8(status).unwrap();
+    assert!(status.contains("enabled") && status.contains("points"), "{status}");
+    // All the points arrived (at most 60 bytes each, at least 55 here).
+    assert!(b.received.load(Ordering::Relaxed) >= 201 * 55);
+}
+
+#[test]
+fn an_interrupt_disables_and_waits_for_the_ramp() {
+    let dir = common::scratch("stream-interrupt");
+    let b = board(Trouble::None);
+    let a = args(&dir, &b.address);
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let flag = interrupt.clone();
+    std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(600));
+        flag.store(true, Ordering::Relaxed);
+    });
+    let report = stream::run(&a, &mut Vec::new(), &interrupt).unwrap();
+    assert_eq!(report.ending, Ending::Interrupted);
+    let end = b.thread.join().unwrap();
+    let last = end.telemetry.last().unwrap();
+    assert_eq!(last.state, State::Disabled);
+    assert!(last.torques.iter().all(|&x| x == 0.0));
+    // It stopped partway: the end of the trajectory never played.
+    assert!(end.telemetry.iter().all(|t| t.setpoint_seq < 2000));
+}
+
+#[test]
+fn a_fault_ends_the_stream_with_its_reason() {
+    let dir = common::scratch("stream-fault");
+    let b = board(Trouble::Unreadable(500));
+    let a = args(&dir, &b.address);
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 1);
+    assert!(e.message.contains("faulted: encoder"), "{e}");
+    drop(b.thread.join());
+}
+
+#[test]
+fn a_board_that_stops_answering_is_reported_within_the_silence_limit() {
+    let b = board(Trouble::Silent(400));
+    let link = cdpr::stream::transport::tcp(&b.address, Duration::from_secs(2)).unwrap();
+    let mut session = Session::new(link, Options::DEFAULT);
+    let dir = common::scratch("stream-silent");
+    let plan = cdpr::stream::plan::Plan::from_waypoints(&waypoints(&dir), 100.0).unwrap();
+    struct Quiet;
+    impl cdpr::stream::session::Observer for Quiet {
+        fn telemetry(&mut self, _: f64, _: &Telemetry, _: cdpr::stream::session::Progress) {}
+    }
+    let started = Instant::now();
+    let e = session.stream(&plan.points, &mut Quiet, &AtomicBool::new(false)).unwrap_err();
+    let took = started.elapsed();
+    match e {
+        SessionError::Silent(d) => {
+            assert!(d >= Duration::from_millis(500) && d < Duration::from_millis(600), "{d:?}")
+        }
+        other => panic!("{other}"),
+    }
+    // Silent from cycle 400 (about 0.4 s after connecting), reported 0.5 s later.
+    assert!(took > Duration::from_millis(850) && took < Duration::from_millis(1300), "{took:?}");
+    drop(session);
+    drop(b.thread.join());
+}
+
+#[test]
+fn bad_input_is_one_line_and_nothing_is_sent() {
+    let dir = common::scratch("stream-bad");
+    let b = board(Trouble::None);
+    let mut a = args(&dir, &b.address);
+    // Times that go backwards in a pose table.
+    let poses = dir.join("poses.csv");
+    std::fs::write(
+        &poses,
+        "time,x,y,z,rx,ry,rz\n0.0,0,0,1.8,0,0,0\n0.05,0,0,1.8,0,0,0\n0.04,0,0,1.8,0,0,0\n",
+    )
+    .unwrap();
+    a.waypoints = None;
+    a.poses = Some(poses.clone());
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.message.contains("poses.csv") && !e.message.contains('\n'), "{e}");
+    // A pose outside the setpoint range (x = 9 m), with its line.
+    std::fs::write(&poses, "time,x,y,z,rx,ry,rz\n0.0,0,0,1.8,0,0,0\n0.05,9,0,1.8,0,0,0\n").unwrap();
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.message.contains("line 3") && e.message.contains("setpoint range"), "{e}");
+    // A jump the board would refuse: 0.3 m in 50 ms at rest.
+    std::fs::write(
+        &poses,
+        "time,x,y,z,rx,ry,rz\n0.0,0,0,1.8,0,0,0\n0.05,0.3,0,1.8,0,0,0\n0.1,0.3,0,1.8,0,0,0\n",
+    )
+    .unwrap();
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert!(e.message.contains("line 3") && e.message.contains("jump"), "{e}");
+    // A robot the firmware cannot be built for.
+    a.robot = common::robot("planar3-5");
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert!(e.message.contains("6 DOF x 8 cables"), "{e}");
+    // Nothing reached the board (it is still waiting to be connected to).
+    assert_eq!(b.received.load(Ordering::Relaxed), 0);
+    // An unknown port: one line, exit 2.
+    let mut a = args(&dir, &b.address);
+    a.tcp = None;
+    a.port = Some("/dev/no-such-port".into());
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.message.starts_with("--port /dev/no-such-port"), "{e}");
+    // Let the board thread end.
+    drop(TcpStream::connect(&b.address));
+    drop(b.thread.join());
+}
