@@ -157,6 +157,8 @@ pub struct ControlLoop {
     tracking_limit: Option<f32>,
     /// The inverse kinematics of `last_feasible`.
     feasible_lengths: Option<[f32; CABLES]>,
+    /// An `Identify` arrived that the caller has not answered yet.
+    identify: bool,
 }
 
 impl ControlLoop {
@@ -204,6 +206,7 @@ impl ControlLoop {
             joint_pid,
             tracking_limit: Some(DEFAULT_TRACKING_LIMIT),
             feasible_lengths: None,
+            identify: false,
             controller: Controller::new(robot, method)?,
             supervisor: Supervisor::new(limits),
             link: Link::new(range),
@@ -459,6 +462,7 @@ impl ControlLoop {
             Event::Disable => self.requests.disable = true,
             Event::ClearFault => self.requests.clear_fault = true,
             Event::TelemetryPeriod(p) => self.telemetry_period = p,
+            Event::Identify => self.identify = true,
             // Only methods that fit the budget, and only while disabled: a
             // switch in motion would jump the tensions.
             Event::SelectMethod(method) => {
@@ -471,6 +475,13 @@ impl ControlLoop {
                 }
             }
         }
+    }
+
+    /// Whether an `Identify` arrived since the last call (which clears
+    /// it): the caller, which knows the robot it was built for, sends
+    /// `DeviceMessage::Identity` (the firmware does after the cycle's step).
+    pub fn take_identify(&mut self) -> bool {
+        core::mem::take(&mut self.identify)
     }
 
     /// Records the measured cost of the last step (instructions or cycles),

@@ -213,6 +213,8 @@ pub enum Event {
     Home(crate::setpoint::Pose6),
     /// Switch to this feedback scheme (already checked to exist).
     SelectFeedback(crate::feedback::Scheme),
+    /// `Identify`: answer with the robot's identity.
+    Identify,
 }
 
 /// The receiving side of the serial link.
@@ -309,6 +311,7 @@ impl Link {
                     return None;
                 }
             },
+            HostMessage::Identify => Event::Identify,
         };
         counters.accepted = counters.accepted.wrapping_add(1);
         Some(event)

@@ -65,6 +65,9 @@ pub enum HostMessage {
     /// Disabled only ([`Rejection::State`]); another number is
     /// [`Rejection::Range`].
     SelectFeedback(u8),
+    /// "Which robot are you built for?" (tag 8): the receiver answers with
+    /// [`DeviceMessage::Identity`] at its next cycle, in any state.
+    Identify,
 }
 
 /// The safety state machine's states (see the firmware README's diagram).
@@ -308,10 +311,65 @@ pub struct Telemetry {
     pub tension_limited: u8,
 }
 
+/// Bytes of the robot's name in [`Identity`]; longer names are truncated
+/// (at a character boundary).
+pub const IDENTITY_NAME_LEN: usize = 24;
+
+/// The robot a firmware was built for, as it answers
+/// [`HostMessage::Identify`]: its robot file's `name` and the hash of the
+/// file's parsed content (`robot_file::RobotFile::identity`: FNV-1a 64
+/// over a canonical serialisation of every value the file sets, so
+/// formatting and comments do not change it, any number does), with its
+/// shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Identity {
+    /// The name's UTF-8 bytes, zero padded.
+    pub name: [u8; IDENTITY_NAME_LEN],
+    /// How many of `name`'s bytes are the name (at most
+    /// [`IDENTITY_NAME_LEN`]; a larger value is malformed).
+    pub name_len: u8,
+    /// The robot file's content hash.
+    pub hash: u64,
+    /// Degrees of freedom.
+    pub dof: u8,
+    /// Cables.
+    pub cables: u8,
+}
+
+impl Identity {
+    /// The identity of a robot named `name` (truncated to
+    /// [`IDENTITY_NAME_LEN`] bytes at a character boundary).
+    pub const fn new(name: &str, hash: u64, dof: u8, cables: u8) -> Self {
+        let bytes = name.as_bytes();
+        let mut len = if bytes.len() < IDENTITY_NAME_LEN { bytes.len() } else { IDENTITY_NAME_LEN };
+        // Back to a character boundary: never cut a UTF-8 sequence.
+        while len > 0 && len < bytes.len() && (bytes[len] & 0xC0) == 0x80 {
+            len -= 1;
+        }
+        let mut out = [0u8; IDENTITY_NAME_LEN];
+        let mut i = 0;
+        while i < len {
+            out[i] = bytes[i];
+            i += 1;
+        }
+        Self { name: out, name_len: len as u8, hash, dof, cables }
+    }
+
+    /// The name, `None` when `name_len` is too large or the bytes are not
+    /// UTF-8 (a malformed message).
+    pub fn name(&self) -> Option<&str> {
+        let bytes = self.name.get(..usize::from(self.name_len))?;
+        core::str::from_utf8(bytes).ok()
+    }
+}
+
 /// Firmware to host.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeviceMessage {
     /// A telemetry sample (tag 0).
     Telemetry(Telemetry),
+    /// The answer to [`HostMessage::Identify`] (tag 1).
+    Identity(Identity),
 }
