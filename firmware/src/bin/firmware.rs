@@ -90,6 +90,7 @@ mod app {
         );
         let mut frame = [0u8; MAX_FRAME];
         let mut overrun = false;
+        let mut identify = false;
         let mut last_state = control.supervisor().state();
         let mut releases = Releases::start().await;
         loop {
@@ -103,15 +104,24 @@ mod app {
             // The encoders' stand-in (QEMU), outside the measured step.
             let tracked = control.last_feasible_setpoint().map(|s| s.pose);
             drives.advance(control.controller().robot(), tracked.as_ref());
-            // The answer to `Identify`, then the cycle's telemetry.
-            let identity = control.take_identify().then_some(DeviceMessage::Identity(robot::IDENTITY));
-            for message in identity.into_iter().chain(report.telemetry.map(DeviceMessage::Telemetry)) {
-                if let Ok(n) = encode(&message, &mut frame) {
-                    if serial::queue_frame(tx, &frame[..n]) {
-                        // Already running: it will find the new bytes.
-                        let _ = transmit::spawn();
-                    }
+            // The answer to `Identify` (kept until it fits the transmit
+            // queue), then the cycle's telemetry (best effort).
+            identify |= control.take_identify();
+            let mut queued = false;
+            if identify {
+                if let Ok(n) = encode(&DeviceMessage::Identity(robot::IDENTITY), &mut frame) {
+                    identify = !serial::queue_frame(tx, &frame[..n]);
+                    queued |= !identify;
                 }
+            }
+            if let Some(telemetry) = report.telemetry {
+                if let Ok(n) = encode(&DeviceMessage::Telemetry(telemetry), &mut frame) {
+                    queued |= serial::queue_frame(tx, &frame[..n]);
+                }
+            }
+            if queued {
+                // Already running: it will find the new bytes.
+                let _ = transmit::spawn();
             }
             if report.state != last_state {
                 let (stack, _) = stack::stack_high_water();
