@@ -2,7 +2,10 @@
 //! (cortex-m-rt's `link.x` includes it) and generates the robot's constants
 //! from its robot file (`robots/suspended-8.toml`, or the file `CDPR_ROBOT`
 //! names), read with `robot-file`, into `$OUT_DIR/robot.rs` (included by
-//! `src/robot.rs`).
+//! `src/robot.rs`): the robot's numbers, its identity
+//! (`RobotFile::identity`: the name and the hash of the parsed content)
+//! and its demo trajectory (`cdpr_demo::derive`, in `f64` with
+//! `tension-core`; `cargo xtask` derives the same from the same file).
 
 use std::{
     env,
@@ -28,7 +31,9 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=CDPR_ROBOT");
 
-    let robot = env::var_os("CDPR_ROBOT").map(PathBuf::from).unwrap_or_else(|| top.join(DEFAULT_ROBOT));
+    // A relative path is taken from the workspace root (cargo runs build
+    // scripts in the package's directory).
+    let robot = env::var_os("CDPR_ROBOT").map(|p| top.join(p)).unwrap_or_else(|| top.join(DEFAULT_ROBOT));
     println!("cargo:rerun-if-changed={}", robot.display());
     let code = match generate(&robot) {
         Ok(code) => code,
@@ -62,7 +67,8 @@ fn list(items: impl IntoIterator<Item = String>) -> String {
 /// valid 6 x 8 robot with a winch.
 fn generate(path: &Path) -> Result<String, String> {
     let file = RobotFile::load(path).map_err(|e| e.to_string())?;
-    file.to_robot::<f64, DOF, CABLES>()
+    let robot = file
+        .to_robot::<f64, DOF, CABLES>()
         .map_err(|e| format!("{e} (the firmware runs {DOF} DOF x {CABLES} cables)"))?;
     let winch = file.winch.ok_or("no [winch]: the firmware commands motor torques")?;
     let mut s = String::new();
@@ -130,6 +136,33 @@ fn generate(path: &Path) -> Result<String, String> {
         s,
         "/// `[winch] encoder_sign` per cable (`1`: the counts rise as the cable pays out).\npub const ENCODER_SIGNS: [i8; CABLES] = {};",
         list(file.encoder.signs.iter().map(|s| s.to_string()))
+    );
+    let identity = file.identity();
+    let _ = writeln!(
+        s,
+        "/// FNV-1a 64 of the robot file's parsed content (`robot_file::RobotFile::identity`: {identity}).\npub const IDENTITY_HASH: u64 = {:#018x};",
+        identity.hash
+    );
+    let _ = writeln!(
+        s,
+        "/// What the board answers `HostMessage::Identify` with.\npub const IDENTITY: cdpr_protocol::Identity = cdpr_protocol::Identity::new(NAME, IDENTITY_HASH, {DOF}, {CABLES});"
+    );
+    let d = cdpr_demo::derive::derive(&robot).map_err(|e| format!("the demo trajectory: {e}"))?;
+    let p = d.params;
+    let f = |x: f32| format!("{x:?}_f32");
+    let _ = writeln!(
+        s,
+        "/// The demo trajectory derived from the robot (`cdpr_demo::derive`): static barycenter robustness {:.3} N at the centre, the loop's smallest {:.3} N (amplitudes {:.3} of the starting ones), the excursion infeasible for {} cycles.\npub const DEMO: cdpr_demo::trajectory::Params = cdpr_demo::trajectory::Params {{ centre: {}, amplitude: {}, excursion: {}, excursion_start: {}, excursion_ramp: {}, excursion_hold: {} }};",
+        d.centre_robustness,
+        d.loop_robustness,
+        d.scale,
+        d.infeasible_run,
+        list(p.centre.map(f)),
+        list(p.amplitude.map(f)),
+        list(p.excursion.map(f)),
+        f(p.excursion_start),
+        f(p.excursion_ramp),
+        f(p.excursion_hold),
     );
     Ok(s)
 }

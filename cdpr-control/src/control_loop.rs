@@ -185,6 +185,8 @@ pub struct ControlLoop {
     feedback_scale: f32,
     /// The trajectory points waiting to be played.
     buffer: PointBuffer,
+    /// An `Identify` arrived that the caller has not answered yet.
+    identify: bool,
 }
 
 impl ControlLoop {
@@ -234,6 +236,7 @@ impl ControlLoop {
             feasible_lengths: None,
             feedback_scale: 1.0,
             buffer: PointBuffer::new(),
+            identify: false,
             controller: Controller::new(robot, method)?,
             supervisor: Supervisor::new(limits),
             link: Link::new(range),
@@ -497,6 +500,7 @@ impl ControlLoop {
             Event::Disable => self.requests.disable = true,
             Event::ClearFault => self.requests.clear_fault = true,
             Event::TelemetryPeriod(p) => self.telemetry_period = p,
+            Event::Identify => self.identify = true,
             // Only methods that fit the budget, and only while disabled: a
             // switch in motion would jump the tensions.
             Event::SelectMethod(method) => {
@@ -509,6 +513,13 @@ impl ControlLoop {
                 }
             }
         }
+    }
+
+    /// Whether an `Identify` arrived since the last call (which clears
+    /// it): the caller, which knows the robot it was built for, sends
+    /// `DeviceMessage::Identity` (the firmware does after the cycle's step).
+    pub fn take_identify(&mut self) -> bool {
+        core::mem::take(&mut self.identify)
     }
 
     /// Records the measured cost of the last step (instructions or cycles),

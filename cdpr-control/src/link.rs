@@ -220,6 +220,8 @@ pub enum Event {
     Home(crate::setpoint::Pose6),
     /// Switch to this feedback scheme (already checked to exist).
     SelectFeedback(crate::feedback::Scheme),
+    /// `Identify`: answer with the robot's identity.
+    Identify,
     /// A trajectory point for the buffer (finite, within the range's
     /// pose and speed limits); the buffer applies its own rules
     /// (`crate::point_buffer`).
@@ -336,6 +338,7 @@ impl Link {
                     return None;
                 }
             },
+            HostMessage::Identify => Event::Identify,
         };
         counters.accepted = counters.accepted.wrapping_add(1);
         Some(event)

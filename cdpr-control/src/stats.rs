@@ -36,6 +36,11 @@ impl<'a> Samples<'a> {
         }
     }
 
+    /// The stored samples, in the order recorded (until [`Samples::summary`] sorts them).
+    pub fn as_slice(&self) -> &[u32] {
+        &self.buf[..self.len]
+    }
+
     /// Forgets every sample (keeps the buffer).
     pub fn clear(&mut self) {
         self.len = 0;

@@ -1,7 +1,9 @@
 //! What the firmware's demo run and `cargo xtask` share, defined once:
 //!
 //! * [`trajectory`]: the scripted setpoint trajectory the demo follows and
-//!   the end-to-end test streams;
+//!   the end-to-end test streams, as [`trajectory::Params`] per robot;
+//! * `derive` (feature `std`, host only): those parameters from a robot,
+//!   for the firmware's `build.rs` and for `xtask`;
 //! * [`report`]: the typed records the demo logs, postcard-encoded, for
 //!   `xtask` to decode;
 //! * [`methods`]: which methods the board offers, from their measured
@@ -19,6 +21,11 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "std")]
+extern crate std;
+
+#[cfg(feature = "std")]
+pub mod derive;
 pub mod methods;
 pub mod report;
 pub mod trajectory;

@@ -5,12 +5,19 @@
 //!
 //! A method is offered when its stated worst solve plus the stated rest of
 //! the control step fits [`BUDGET`] (20 000 instructions per 1 ms step, the
-//! figure every step of the demo is held to). The stated figures are the
-//! worst cases `cargo xtask run` measured on the board (QEMU, `-icount
-//! shift=3`) over the demo's 4600 poses (rest at the centre, jumps between
-//! poses, the trajectory with its infeasible stretch), rounded up by 2 to 5 %
-//! (the barycenter's, the solver in the loop, measured 12 630; min-2-norm
-//! 16 288; optimally-safe 194 181); `cargo xtask test` fails this table
+//! figure every step of the demo is held to), or when it is the loop's own
+//! method ([`LOOP_METHOD`], barycenter), whose every step the demo
+//! measures whole and holds to the budget directly (the sum of two worst
+//! cases that do not happen in the same cycle says less). The stated
+//! figures are the worst cases `cargo xtask run` measured on the board
+//! (QEMU, `-icount shift=3`) over the demo's 4600 poses (rest at the
+//! centre, jumps between poses, the loop with its excursion out of the
+//! workspace) of the robots `cargo xtask test` runs (suspended-8 and
+//! ipanema1, each on its own derived trajectory), the larger of the two,
+//! rounded up by 1 to 5 % (the barycenter's, the solver in the loop,
+//! measured 12 828 on suspended-8 and 13 307 on ipanema1, its cold start
+//! where the loop begins; analytic-centre 111 060 on suspended-8;
+//! optimally-safe 209 523 on ipanema1); `cargo xtask test` fails this table
 //! ([`exceeded`]) when a measured worst exceeds its stated one.
 
 use tension_core::Method;
@@ -36,18 +43,22 @@ pub struct MethodCost {
 /// test command holds to the budget.
 pub const STEP_REST: u32 = 7_000;
 
+/// The control loop's method (the firmware's default): offered whatever
+/// the table says, its steps being measured whole.
+pub const LOOP_METHOD: Method = Method::Barycenter;
+
 /// Every method's stated worst solve, in `Method::ALL` order.
 pub const COSTS: [MethodCost; 10] = [
-    MethodCost { method: Method::Barycenter, worst: 13_000 },
+    MethodCost { method: Method::Barycenter, worst: 13_500 },
     MethodCost { method: Method::BarycenterBrute, worst: 40_000 },
-    MethodCost { method: Method::AnalyticCentre, worst: 76_000 },
+    MethodCost { method: Method::AnalyticCentre, worst: 115_000 },
     MethodCost { method: Method::ClosedForm, worst: 3_800 },
     MethodCost { method: Method::ImprovedClosedForm, worst: 23_500 },
     MethodCost { method: Method::Puncture, worst: 5_200 },
     MethodCost { method: Method::ImprovedPuncture, worst: 25_000 },
     MethodCost { method: Method::Min2Norm, worst: 18_600 },
     MethodCost { method: Method::Min1Norm, worst: 18_600 },
-    MethodCost { method: Method::OptimallySafe, worst: 198_000 },
+    MethodCost { method: Method::OptimallySafe, worst: 215_000 },
 ];
 
 /// The stated worst solve of `method`.
@@ -62,10 +73,10 @@ pub const fn stated_worst(method: Method) -> u32 {
     u32::MAX
 }
 
-/// Whether the board offers `method`: its stated worst solve plus
-/// [`STEP_REST`] within [`BUDGET`].
+/// Whether the board offers `method`: the [`LOOP_METHOD`], or its stated
+/// worst solve plus [`STEP_REST`] within [`BUDGET`].
 pub const fn is_offered(method: Method) -> bool {
-    stated_worst(method).saturating_add(STEP_REST) <= BUDGET
+    method.wire_id() == LOOP_METHOD.wire_id() || stated_worst(method).saturating_add(STEP_REST) <= BUDGET
 }
 
 /// The methods the board offers (barycenter, closed-form, puncture).
@@ -102,6 +113,6 @@ mod tests {
             assert_eq!(offered().contains(method), is_offered(method));
         }
         assert!(!offered().contains(Method::OptimallySafe));
-        assert!(exceeded(Method::Barycenter, 13_001) && !exceeded(Method::Barycenter, 13_000));
+        assert!(exceeded(Method::Barycenter, 13_501) && !exceeded(Method::Barycenter, 13_500));
     }
 }

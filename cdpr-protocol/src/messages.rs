@@ -82,7 +82,10 @@ pub enum HostMessage {
     /// Disabled only ([`Rejection::State`]); another number is
     /// [`Rejection::Range`].
     SelectFeedback(u8),
-    /// A trajectory point for the board's buffer (tag 8): the link's
+    /// "Which robot are you built for?" (tag 8): the receiver answers with
+    /// [`DeviceMessage::Identity`] at its next cycle, in any state.
+    Identify,
+    /// A trajectory point for the board's buffer (tag 9): the link's
     /// budget (the firmware README) has room for points at 50-250 Hz, not
     /// for a [`HostMessage::Setpoint`] every millisecond. A point must be
     /// later than the one before it and not in the past of the buffer's
@@ -131,11 +134,13 @@ pub enum Reason {
     /// setpoint asks for by more than the tracking limit: a broken or
     /// slipping cable, or a winch that cannot deliver its torque (tag 7).
     Tracking,
-    /// The pose estimator failed: the forward kinematics of the encoder
-    /// lengths did not converge, or its residual (how far the lengths are
-    /// from those of any pose) exceeded the limit (tag 8). A hold: the
-    /// last feasible torques are held, feedback off, and a fault follows
-    /// (`HoldTimeout`, `hold_reason` = this) if it lasts.
+    /// The pose estimator (tag 8): its residual (how far the encoder
+    /// lengths are from those of any pose) exceeded the limit, a fault at
+    /// once (a broken, slack or slipping cable, a stopped encoder, a wrong
+    /// homing); or its step failed otherwise (a correction too large, a
+    /// singular geometry), a hold: the last feasible torques are held,
+    /// feedback off, and a fault follows (`HoldTimeout`, `hold_reason` =
+    /// this) if it lasts.
     Estimator,
     /// A winch drive's encoder could not be read (tag 9): a fault while
     /// Enabled or Holding; `Telemetry::unreadable_drive` names the drive.
@@ -352,10 +357,65 @@ pub struct Telemetry {
     pub buffer_lead_ms: u16,
 }
 
+/// Bytes of the robot's name in [`Identity`]; longer names are truncated
+/// (at a character boundary).
+pub const IDENTITY_NAME_LEN: usize = 24;
+
+/// The robot a firmware was built for, as it answers
+/// [`HostMessage::Identify`]: its robot file's `name` and the hash of the
+/// file's parsed content (`robot_file::RobotFile::identity`: FNV-1a 64
+/// over a canonical serialisation of every value the file sets, so
+/// formatting and comments do not change it, any number does), with its
+/// shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Identity {
+    /// The name's UTF-8 bytes, zero padded.
+    pub name: [u8; IDENTITY_NAME_LEN],
+    /// How many of `name`'s bytes are the name (at most
+    /// [`IDENTITY_NAME_LEN`]; a larger value is malformed).
+    pub name_len: u8,
+    /// The robot file's content hash.
+    pub hash: u64,
+    /// Degrees of freedom.
+    pub dof: u8,
+    /// Cables.
+    pub cables: u8,
+}
+
+impl Identity {
+    /// The identity of a robot named `name` (truncated to
+    /// [`IDENTITY_NAME_LEN`] bytes at a character boundary).
+    pub const fn new(name: &str, hash: u64, dof: u8, cables: u8) -> Self {
+        let bytes = name.as_bytes();
+        let mut len = if bytes.len() < IDENTITY_NAME_LEN { bytes.len() } else { IDENTITY_NAME_LEN };
+        // Back to a character boundary: never cut a UTF-8 sequence.
+        while len > 0 && len < bytes.len() && (bytes[len] & 0xC0) == 0x80 {
+            len -= 1;
+        }
+        let mut out = [0u8; IDENTITY_NAME_LEN];
+        let mut i = 0;
+        while i < len {
+            out[i] = bytes[i];
+            i += 1;
+        }
+        Self { name: out, name_len: len as u8, hash, dof, cables }
+    }
+
+    /// The name, `None` when `name_len` is too large or the bytes are not
+    /// UTF-8 (a malformed message).
+    pub fn name(&self) -> Option<&str> {
+        let bytes = self.name.get(..usize::from(self.name_len))?;
+        core::str::from_utf8(bytes).ok()
+    }
+}
+
 /// Firmware to host.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeviceMessage {
     /// A telemetry sample (tag 0).
     Telemetry(Telemetry),
+    /// The answer to [`HostMessage::Identify`] (tag 1).
+    Identity(Identity),
 }

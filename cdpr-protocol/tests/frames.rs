@@ -4,8 +4,9 @@
 //! rejected without a panic.
 
 use cdpr_protocol::{
-    crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Reason, Rejection,
-    Setpoint, State, Telemetry, TrajectoryPoint, CABLES, MAX_FRAME, MAX_PAYLOAD,
+    crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Identity, Reason,
+    Rejection, Setpoint, State, Telemetry, TrajectoryPoint, CABLES, IDENTITY_NAME_LEN, MAX_FRAME,
+    MAX_PAYLOAD,
 };
 use proptest::prelude::*;
 
@@ -108,17 +109,17 @@ fn largest_message_fits() {
 /// Raw payload bytes with a correct CRC, COBS-framed by the test itself.
 #[test]
 fn a_trajectory_point_frame_is_at_most_60_bytes() {
-    // The link budget (firmware README) counts 60 bytes per point: tag 8,
+    // The link budget (firmware README) counts 60 bytes per point: tag 9,
     // the time as a varint (5 bytes at most), 12 floats, CRC, COBS, 0x00.
     let point = TrajectoryPoint { time_ms: u32::MAX, pose: [f32::MAX; 6], velocity: [f32::MIN; 6] };
     let frame = frame_of(&HostMessage::Point(point));
     assert_eq!(frame.len(), 60);
     let decoded = feed::<HostMessage>(&frame);
     assert_eq!(decoded, vec![Ok(HostMessage::Point(point))]);
-    // The tag is the enum's ninth: 8.
+    // The tag is the enum's tenth: 9.
     let mut buf = [0u8; MAX_PAYLOAD];
     let payload = postcard::to_slice(&HostMessage::Point(point), &mut buf).unwrap();
-    assert_eq!(payload[0], 8);
+    assert_eq!(payload[0], 9);
 }
 
 fn framed_raw(payload: &[u8]) -> Vec<u8> {
@@ -129,6 +130,65 @@ fn framed_raw(payload: &[u8]) -> Vec<u8> {
     out.truncate(n);
     out.push(0);
     out
+}
+
+/// `Identify` is tag 8 (appended: the tags before it did not move); the
+/// answer is `DeviceMessage` tag 1: 24 name bytes, the length, the hash as
+/// a varint, the shape.
+#[test]
+fn identify_and_identity() {
+    assert_eq!(payload_of(&HostMessage::Identify), [0x08]);
+    assert_eq!(feed::<HostMessage>(&frame_of(&HostMessage::Identify)), vec![Ok(HostMessage::Identify)]);
+    let id = Identity::new("suspended-8", 0x0123_4567_89ab_cdef, 6, 8);
+    assert_eq!(id.name(), Some("suspended-8"));
+    assert_eq!(id.name_len, 11);
+    let message = DeviceMessage::Identity(id);
+    let mut buf = [0u8; MAX_PAYLOAD];
+    let payload = postcard::to_slice(&message, &mut buf).unwrap().to_vec();
+    assert_eq!(payload[0], 1);
+    assert_eq!(&payload[1..12], b"suspended-8");
+    assert!(payload[12..25].iter().all(|&b| b == 0));
+    assert_eq!(payload[25], 11);
+    assert_eq!(payload[payload.len() - 2..], [6, 8]);
+    assert_eq!(feed::<DeviceMessage>(&frame_of(&message)), vec![Ok(message)]);
+    // The largest identity fits a frame.
+    let widest = DeviceMessage::Identity(Identity::new(&"x".repeat(40), u64::MAX, u8::MAX, u8::MAX));
+    assert!(frame_of(&widest).len() <= MAX_FRAME);
+    // Long names are cut to 24 bytes, at a character boundary.
+    assert_eq!(Identity::new(&"ab".repeat(20), 0, 6, 8).name(), Some("abababababababababababab"));
+    let accents = "é".repeat(20); // two bytes each: 12 fit
+    let cut = Identity::new(&accents, 0, 6, 8);
+    assert_eq!(cut.name(), Some("é".repeat(12).as_str()));
+    let odd = format!("a{accents}"); // 1 + 2k bytes: 23 fit
+    assert_eq!(Identity::new(&odd, 0, 6, 8).name().map(str::len), Some(23));
+    assert_eq!(Identity::new("", 7, 6, 8).name(), Some(""));
+}
+
+/// Hostile identities decode without a panic; a malformed one has no name.
+#[test]
+fn hostile_identities() {
+    let good = DeviceMessage::Identity(Identity::new("ipanema1", 42, 6, 8));
+    let mut buf = [0u8; MAX_PAYLOAD];
+    let payload = postcard::to_slice(&good, &mut buf).unwrap().to_vec();
+    // name_len beyond the array.
+    let mut long = payload.clone();
+    long[1 + IDENTITY_NAME_LEN] = 200;
+    let Ok(DeviceMessage::Identity(id)) = feed::<DeviceMessage>(&framed_raw(&long))[0] else { panic!() };
+    assert_eq!(id.name(), None);
+    // Bytes that are not UTF-8.
+    let mut bad = payload.clone();
+    bad[1] = 0xff;
+    let Ok(DeviceMessage::Identity(id)) = feed::<DeviceMessage>(&framed_raw(&bad))[0] else { panic!() };
+    assert_eq!(id.name(), None);
+    // Every truncation is rejected; an overlong hash varint too.
+    for cut in 1..payload.len() {
+        assert!(feed::<DeviceMessage>(&framed_raw(&payload[..cut])).iter().all(|r| r.is_err()), "cut {cut}");
+    }
+    let mut overlong = payload[..1 + IDENTITY_NAME_LEN + 1].to_vec();
+    overlong.extend([0xaa, 0x80, 0x00, 6, 8]); // 42 as three bytes
+    assert_eq!(feed::<DeviceMessage>(&framed_raw(&overlong)), vec![Err(FrameError::Decode)]);
+    // An unknown device tag.
+    assert_eq!(feed::<DeviceMessage>(&framed_raw(&[2])), vec![Err(FrameError::Decode)]);
 }
 
 #[test]
@@ -196,6 +256,7 @@ fn any_host_message() -> impl Strategy<Value = HostMessage> {
         any::<u8>().prop_map(HostMessage::SelectMethod),
         prop::array::uniform6(any_f32()).prop_map(HostMessage::Home),
         any::<u8>().prop_map(HostMessage::SelectFeedback),
+        Just(HostMessage::Identify),
         (any::<u32>(), prop::array::uniform6(any_f32()), prop::array::uniform6(any_f32())).prop_map(
             |(time_ms, pose, velocity)| HostMessage::Point(TrajectoryPoint { time_ms, pose, velocity })
         ),

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use cdpr::stream::session::{Ending, Options, Session, SessionError};
 use cdpr::stream::{self, StreamArgs};
 use cdpr_control::link::SetpointRange;
-use cdpr_control::protocol::{encode, DeviceMessage, State, Telemetry, MAX_FRAME};
+use cdpr_control::protocol::{encode, DeviceMessage, Identity, State, Telemetry, MAX_FRAME};
 use cdpr_control::supervisor::SafetyLimits;
 use cdpr_control::{ControlLoop, NoClock, WinchDrives, WinchReading, CABLES};
 use tension_core::Method;
@@ -30,6 +30,14 @@ enum Trouble {
     Unreadable(u32),
     /// It stops sending telemetry from this cycle on (the socket stays open).
     Silent(u32),
+    /// It was built for another robot (answers `Identify` with ipanema1).
+    OtherRobot,
+}
+
+/// The identity a board built from `robots/NAME.toml` answers with.
+fn identity_of(name: &str) -> Identity {
+    let id = robot_file::RobotFile::load(common::robot(name)).unwrap().identity();
+    Identity::new(&id.name, id.hash, 6, 8)
 }
 
 /// Winches that follow the loop's feasible lengths at once.
@@ -97,6 +105,7 @@ fn board(trouble: Trouble) -> Board {
         socket.set_nonblocking(true).unwrap();
         let mut end = BoardEnd { telemetry: Vec::new(), states: Vec::new() };
         let mut frame = [0u8; MAX_FRAME];
+        let identity = identity_of(if trouble == Trouble::OtherRobot { "ipanema1" } else { "suspended-8" });
         let t0 = Instant::now();
         for k in 0..20_000u32 {
             // Real time: cycle k starts at k ms.
@@ -126,6 +135,14 @@ fn board(trouble: Trouble) -> Board {
             }
             if matches!(trouble, Trouble::Silent(at) if k >= at) {
                 continue;
+            }
+            if control.take_identify() {
+                let n = encode(&DeviceMessage::Identity(identity), &mut frame).unwrap();
+                let _ = socket.set_nonblocking(false);
+                if socket.write_all(&frame[..n]).is_err() {
+                    break;
+                }
+                let _ = socket.set_nonblocking(true);
             }
             if let Some(t) = report.telemetry {
                 end.telemetry.push(t);
@@ -232,6 +249,22 @@ fn an_interrupt_disables_and_waits_for_the_ramp() {
 }
 
 #[test]
+fn a_board_built_for_another_robot_is_refused_before_anything_moves() {
+    let dir = common::scratch("stream-other-robot");
+    let b = board(Trouble::OtherRobot);
+    let a = args(&dir, &b.address);
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 1);
+    assert!(e.message.contains("built for ipanema1#") && e.message.contains("not for suspended-8#"), "{e}");
+    let end = b.thread.join().unwrap();
+    // Only TelemetryPeriod and Identify arrived: never homed, never enabled.
+    let last = end.telemetry.last().unwrap();
+    assert!(!last.homed && last.buffer_fill == 0, "{last:?}");
+    assert_eq!(end.states, vec![State::Disabled]);
+    assert!(last.counters.accepted <= 2, "{:?}", last.counters);
+}
+
+#[test]
 fn a_fault_ends_the_stream_with_its_reason() {
     let dir = common::scratch("stream-fault");
     let b = board(Trouble::Unreadable(500));
@@ -254,7 +287,9 @@ fn a_board_that_stops_answering_is_reported_within_the_silence_limit() {
         fn telemetry(&mut self, _: f64, _: &Telemetry, _: cdpr::stream::session::Progress) {}
     }
     let started = Instant::now();
-    let e = session.stream(&plan.points, &mut Quiet, &AtomicBool::new(false)).unwrap_err();
+    let e = session
+        .stream(&plan.points, &identity_of("suspended-8"), &mut Quiet, &AtomicBool::new(false))
+        .unwrap_err();
     let took = started.elapsed();
     match e {
         SessionError::Silent(d) => {

@@ -3,18 +3,21 @@
 //! fed by a scripted trajectory instead of the serial link, timed, and
 //! judged.
 //!
-//! * Setpoints: [`cdpr_demo::trajectory::script`]: 300 cycles at rest at
-//!   suspended-8's centre and 300 cycles jumping between poses (disabled),
-//!   then one closed loop of 4000 cycles that crosses the workspace of
-//!   suspended-8 and leaves it once (near the top). They enter the loop as
-//!   protocol messages, through the same checks as received frames.
+//! * Setpoints: [`cdpr_demo::trajectory::Params::script`] with the robot's
+//!   derived parameters ([`crate::robot::DEMO`]): 300 cycles at rest at
+//!   the centre of its workspace and 300 cycles jumping between poses
+//!   (disabled), then one closed loop of 4000 cycles around the centre,
+//!   feasible with a tension margin, with one excursion out of the
+//!   workspace. They enter the loop as protocol messages, through the
+//!   same checks as received frames.
 //! * The winches' encoders are a stand-in ([`cdpr_demo::winches`]: each
 //!   cable follows the tracked setpoint's inverse kinematics with a 5 ms
 //!   lag, read as counts), advanced after each measured step; the loop
 //!   reads them, estimates the pose and runs its feedback inside the
 //!   step, at their real cost.
-//! * A scripted operator: `Home` at the centre and `SelectFeedback` of the
-//!   task-space PID at cycle 0; `Enable` at the loop's start (repeated
+//! * A scripted operator: `Home` at the centre at cycle 0, `SelectFeedback`
+//!   of the task-space PID once the stand-in has settled after the jumps
+//!   (25 cycles before the loop); `Enable` at the loop's start (repeated
 //!   until granted: the stand-in needs a few cycles to reach the loop's
 //!   first pose after the jumps); after a fault, once the torque ramp has
 //!   finished and the setpoint is feasible again, `ClearFault`, the
@@ -47,6 +50,7 @@ use tension_core::{Error, Method, WarmStart};
 
 use crate::clock::{self, ticks_to_units as units, Tim2Counter};
 use crate::periodic::Releases;
+use crate::robot::DEMO;
 use crate::{bsp, drives, stack, Board};
 
 /// Cycles of the scripted run (the prelude and one loop of the trajectory).
@@ -207,12 +211,23 @@ struct LoopResults<'a> {
 /// the fault the `inject-*` programs provoke.
 pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
     let mut flags = announce(board);
-    board.place_stand_in(trajectory::script(0).pose.into());
+    board.place_stand_in(DEMO.script(0).pose.into());
     let mut results = realtime_loop(board, inject).await;
+    // Where the worst step and solve were (the samples are in cycle order
+    // until sorted; the solver's only for cycles that solved).
+    let worst =
+        |s: &[u32]| s.iter().enumerate().fold((0, 0), |w, (k, &c)| if c > w.1 { (k, c) } else { w }).0;
+    let worst_cycle = worst(results.steps.as_slice());
+    let worst_solve = worst(results.solver.as_slice());
     let step = results.steps.summary();
     let barycenter = results.solver.summary();
     let estimator = results.estimator.summary();
     print_loop_results(board, &results, &step, &barycenter, &estimator);
+    defmt::println!(
+        "worst control step at cycle {=u32}; worst solve at the {=u32}th solved cycle",
+        worst_cycle as u32,
+        worst_solve as u32
+    );
     barycenter_phases(&board.clock);
     let method_worst = replay_other_methods(&board.clock, &mut results.solver, barycenter.max);
     let forward = replay_forward_kinematics(&board.clock, &mut results.solver);
@@ -310,19 +325,26 @@ async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults
     let mut operator =
         Operator { enable: trajectory::PRELUDE_CYCLES == 0, scheme: None, fault_since: None, ramp_cycles };
     // The platform (the encoders' stand-in) rests at the script's first
-    // pose: home there, with the task-space scheme for the first stretch.
-    let home = trajectory::script(0).pose;
+    // pose: home there. The task-space scheme for the first stretch is
+    // selected once the stand-in has settled after the jumps (halfway
+    // through the prelude's settling cycles): selected earlier, it would
+    // start from the jumps' error, saturated, and push the pose out of
+    // the workspace for a cycle.
+    let home = DEMO.script(0).pose;
     control.receive(HostMessage::Home(home.into()));
-    control.receive(HostMessage::SelectFeedback(Scheme::TaskSpace.wire_id()));
+    let select_at = trajectory::PRELUDE_CYCLES - trajectory::SETTLE_CYCLES / 2;
     let mut overrun = false;
     let mut previous_ok = true;
 
     let mut releases = Releases::start().await;
     let mut last_start = clock.ticks();
     for k in 0..CYCLES as u32 {
+        if k == select_at {
+            control.receive(HostMessage::SelectFeedback(Scheme::TaskSpace.wire_id()));
+        }
         // The script's setpoint: what a host computes and sends (the
         // product receives it), so not part of the measured step.
-        let setpoint = trajectory::script(k);
+        let setpoint = DEMO.script(k);
         let message = HostMessage::Setpoint(setpoint.to_wire());
         let start = clock.ticks();
         bsp::feed_watchdog();
@@ -569,7 +591,7 @@ fn replay_forward_kinematics(clock: &Tim2Counter, samples: &mut Samples) -> Spre
     let robot = controller.robot();
     let settings = ForwardSettings::for_robot(robot);
     let Ok(scale) = crate::robot::encoder_scale() else { return Spread::default() };
-    let start = trajectory::script(0).pose;
+    let start = DEMO.script(0).pose;
     let Some(mut winches) = cdpr_demo::winches::LagWinches::at_pose(robot, scale, &start) else {
         return Spread::default();
     };
@@ -577,7 +599,7 @@ fn replay_forward_kinematics(clock: &Tim2Counter, samples: &mut Samples) -> Spre
     let (mut ok, mut failed, mut cold, mut iterations, mut worst_residual) = (0u32, 0u32, 0u32, 0u32, 0.0f32);
     let (mut worst_warm, mut worst_cold) = (0u32, 0u32);
     for k in 0..CYCLES as u32 {
-        let target = robot.cables(&trajectory::script(k).pose).ok().map(|c| {
+        let target = robot.cables(&DEMO.script(k).pose).ok().map(|c| {
             let mut l = [0.0; CABLES];
             l.copy_from_slice(c.lengths.as_slice());
             l
@@ -643,7 +665,7 @@ fn receive_flood(board: &mut Board) -> u32 {
     control.receive(HostMessage::Disable);
     control.step(&*clock, drives, false);
     let mut frame = [0u8; MAX_FRAME];
-    let setpoint = HostMessage::Setpoint(trajectory::setpoint(0).to_wire());
+    let setpoint = HostMessage::Setpoint(DEMO.setpoint(0).to_wire());
     let frame_len = encode(&setpoint, &mut frame).unwrap_or(0).max(1);
     let mut worst = 0;
     let names = ["0x00 storm", "0xFF (oversize frames)", "pseudo-random bytes", "back-to-back setpoints"];
@@ -817,7 +839,7 @@ fn barycenter_phases(clock: &Tim2Counter) {
     // Interrupts off: the timings must not include the monotonic's tick.
     cortex_m::interrupt::free(|_| {
         for k in 0..CYCLES as u32 {
-            let Ok((w, f)) = controller.wrench(&trajectory::script(k), &Wrench::zeros()) else { continue };
+            let Ok((w, f)) = controller.wrench(&DEMO.script(k), &Wrench::zeros()) else { continue };
             // Filled in place, as `TensionSolver::solve` does.
             let t0 = clock.ticks();
             let mut fact = WrenchFactorization::zeroed();
@@ -855,7 +877,7 @@ fn replay(method: Method, clock: &Tim2Counter, samples: &mut Samples) -> Outcome
     let mut counts = Outcomes::default();
     let mut controller = controller(method);
     for k in 0..CYCLES as u32 {
-        let (w, f) = match controller.wrench(&trajectory::script(k), &Wrench::zeros()) {
+        let (w, f) = match controller.wrench(&DEMO.script(k), &Wrench::zeros()) {
             Ok(wf) => wf,
             Err(e) => {
                 counts.count::<()>(&Err(e));

@@ -36,10 +36,10 @@ pub mod robot;
 pub mod serial;
 pub mod stack;
 
+use cdpr_control::feedback::{JointGains, TaskPid};
 use cdpr_control::supervisor::SafetyLimits;
 use cdpr_control::ControlLoop;
 use stm32f4::stm32f405::{Peripherals, IWDG, RCC, USART1};
-use tension_core::Method;
 
 use crate::clock::Tim2Counter;
 use crate::drives::Drives;
@@ -80,13 +80,20 @@ impl Board {
         Mono::start(dp.TIM5, &dp.RCC, bsp::TIMER_HZ as u32);
         let mut control = match robot::robot().and_then(|robot| {
             let range = robot::setpoint_range(&robot);
-            ControlLoop::new(robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
+            ControlLoop::new(robot, cdpr_demo::methods::LOOP_METHOD, range, SafetyLimits::DEFAULT)
         }) {
             Ok(c) => c,
             Err(e) => panic!("robot description rejected: {}", e.status()),
         };
         // Only the methods whose worst case fits the step budget.
         control.offer_only(cdpr_demo::methods::offered());
+        // The feedback's bounds scaled to the platform's weight.
+        let gains = *control.task_pid().gains();
+        control.set_task_pid(TaskPid::new(gains, robot::feedback_limits()));
+        let joint = control
+            .joint_pid()
+            .map(|pid| JointGains { integral_max: robot::joint_integral_max(), ..*pid.gains() });
+        control.set_joint_gains(joint);
         match robot::encoder_scale() {
             Ok(scale) => control.set_encoder(scale),
             Err(e) => panic!("robot file's encoders rejected: {:?}", e),

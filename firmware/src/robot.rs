@@ -1,8 +1,12 @@
 //! The robot the firmware drives, as constants generated at build time
 //! from its robot file (`robots/suspended-8.toml` unless `CDPR_ROBOT` names
-//! another; see `build.rs`), and the control loop's setpoint range for it.
+//! another; see `build.rs`): its numbers, its identity ([`IDENTITY`], the
+//! answer to `HostMessage::Identify`), its demo trajectory ([`DEMO`]),
+//! and the control loop's setpoint range and feedback bounds for it.
 
+use cdpr_control::control_loop::{DEFAULT_FEEDBACK_LIMITS, DEFAULT_JOINT_INTEGRAL_MAX};
 use cdpr_control::encoder::{EncoderScale, ScaleError};
+use cdpr_control::feedback::FeedbackLimits;
 use cdpr_control::link::SetpointRange;
 use cdpr_control::{ControlRobot, CABLES};
 use tension_core::nalgebra::{Matrix3, SVector, Vector3};
@@ -45,6 +49,37 @@ pub fn encoder_scale() -> Result<EncoderScale, ScaleError> {
 /// [`SetpointRange::for_robot`]).
 pub fn setpoint_range(robot: &ControlRobot) -> SetpointRange {
     SetpointRange::for_robot(robot)
+}
+
+/// The weight the control loop's default feedback bounds were set for
+/// (suspended-8: 6.34 kg under 9.81 m/s^2), N.
+pub const REFERENCE_WEIGHT: f32 = 6.34 * 9.81;
+
+/// The platform's weight against [`REFERENCE_WEIGHT`]: what the feedback
+/// bounds scale by (1 for suspended-8; 0.016 for ipanema1's 0.1 kg).
+pub fn weight_scale() -> f32 {
+    let g = GRAVITY;
+    MASS * libm::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / REFERENCE_WEIGHT
+}
+
+/// The task-space PID's bounds for this robot: the control loop's defaults
+/// (a third of suspended-8's weight as the force, 2 N m, the integrals)
+/// scaled by [`weight_scale`], so that a light platform's feedback wrench
+/// stays as small against its weight and its tension range.
+pub fn feedback_limits() -> FeedbackLimits {
+    let k = weight_scale();
+    let d = DEFAULT_FEEDBACK_LIMITS;
+    FeedbackLimits {
+        force_max: d.force_max * k,
+        moment_max: d.moment_max * k,
+        integral_max: d.integral_max.map(|x| x * k),
+    }
+}
+
+/// The joint-space PID's integral bound per cable, N: the default scaled by
+/// [`weight_scale`].
+pub fn joint_integral_max() -> f32 {
+    DEFAULT_JOINT_INTEGRAL_MAX * weight_scale()
 }
 
 /// The robot's number of cables is the protocol's.

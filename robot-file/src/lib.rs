@@ -421,6 +421,85 @@ impl RobotFile {
     }
 }
 
+/// A robot's identity: its file's `name` and [`RobotFile::identity`]'s
+/// hash of the parsed content.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct RobotIdentity {
+    /// The file's `name`.
+    pub name: String,
+    /// FNV-1a 64 of the canonical serialisation of the parsed values.
+    pub hash: u64,
+}
+
+/// `name#hash` with the hash as 16 hexadecimal digits.
+impl std::fmt::Display for RobotIdentity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}#{:016x}", self.name, self.hash)
+    }
+}
+
+/// FNV-1a, 64 bits (offset basis 0xcbf29ce484222325, prime 0x100000001b3).
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes
+        .iter()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+impl RobotFile {
+    /// The canonical serialisation [`RobotFile::identity`] hashes: a
+    /// version tag, then every parsed value in a fixed order, numbers as
+    /// little-endian bytes (`f64` bits with `-0.0` as `0.0`), strings
+    /// length-prefixed:
+    /// `"cdpr-robot v1"`, `name`, `kind`'s conventions name, `mass`,
+    /// `com`, `gravity`, `inertia` (row by row), whether there is a
+    /// `[winch]` and its drum radius, gear ratio, efficiency, torque
+    /// limit, `counts_per_revolution`, the number of cables, each
+    /// cable's `encoder_sign`, anchor, attachment, `t_min`, `t_max`
+    /// (per-cable limits as resolved: a file-wide limit and the same
+    /// value repeated per cable are the same robot). Where a value comes
+    /// from (defaults, overrides), whitespace, comments, key order and
+    /// number spelling (`2`, `2.0`, `2e0`) do not enter it.
+    pub fn canonical_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        let text = |out: &mut Vec<u8>, s: &str| {
+            out.extend((s.len() as u64).to_le_bytes());
+            out.extend(s.as_bytes());
+        };
+        let num = |out: &mut Vec<u8>, x: f64| out.extend((x + 0.0).to_bits().to_le_bytes());
+        text(&mut out, "cdpr-robot v1");
+        text(&mut out, &self.name);
+        text(&mut out, self.kind.name());
+        num(&mut out, self.mass);
+        self.com
+            .iter()
+            .chain(&self.gravity)
+            .chain(self.inertia.iter().flatten())
+            .for_each(|&x| num(&mut out, x));
+        match self.winch {
+            Some(w) => {
+                out.push(1);
+                w.iter().for_each(|&x| num(&mut out, x));
+            }
+            None => out.push(0),
+        }
+        out.extend(self.encoder.counts_per_revolution.to_le_bytes());
+        out.extend((self.cables.len() as u64).to_le_bytes());
+        for (i, c) in self.cables.iter().enumerate() {
+            out.push(self.encoder.signs.get(i).copied().unwrap_or(1) as u8);
+            c.anchor.iter().chain(&c.attach).chain([&c.t_min, &c.t_max]).for_each(|&x| num(&mut out, x));
+        }
+        out
+    }
+
+    /// The robot's identity: `name` and the FNV-1a 64 hash of
+    /// [`RobotFile::canonical_bytes`]. The firmware's `build.rs` emits it
+    /// as `firmware::robot::IDENTITY_HASH` and the board answers
+    /// `HostMessage::Identify` with it.
+    pub fn identity(&self) -> RobotIdentity {
+        RobotIdentity { name: self.name.clone(), hash: fnv1a64(&self.canonical_bytes()) }
+    }
+}
+
 /// `[winch]`'s encoder keys, checked: `counts_per_revolution` a positive
 /// integer that fits `u32`, `encoder_sign` `1` or `-1`, or a list of those
 /// with one entry per cable.
@@ -550,6 +629,57 @@ attach = [0.0, 0.0, 0.0]
         let none = base.split("[winch]").next().unwrap().to_string()
             + &"[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n".repeat(3);
         assert_eq!(RobotFile::parse(&none).unwrap().encoder.signs, vec![1, 1, 1]);
+    }
+
+    /// FNV-1a 64's published test vectors.
+    #[test]
+    fn fnv1a64_vectors() {
+        assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    /// The identity depends on the parsed values only: reformatting,
+    /// comments, key order, number spelling and a per-cable limit equal to
+    /// the file-wide one leave it; any value changed (an anchor, a limit,
+    /// the encoder, the name) changes it.
+    #[test]
+    fn identity_is_the_parsed_content() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let text = std::fs::read_to_string(root.join("robots/suspended-8.toml")).unwrap();
+        let id = RobotFile::parse(&text).unwrap().identity();
+        assert_eq!(id.name, "suspended-8");
+        let same = |t: &str| RobotFile::parse(t).unwrap().identity();
+        let reformatted = text
+            .replace(" = ", "=")
+            .replace("\n[", "\n\n# a comment\n[")
+            .replace("t_max = 350.0", "t_max = 3.5e2")
+            .replace("mass = 6.34", "mass = 6.340");
+        assert_ne!(reformatted, text);
+        assert_eq!(same(&reformatted), id);
+        // Keys of a table in another order; the inertia written with integers.
+        let reordered =
+            text.replace("drum_radius = 0.04\ngear_ratio = 8.0", "gear_ratio = 8\ndrum_radius = 0.04");
+        assert_eq!(same(&reordered), id);
+        let explicit =
+            text.replacen("attach = [0.2, -0.15, 0.15]", "attach = [0.2, -0.15, 0.15]\nt_max = 350", 1);
+        assert_eq!(same(&explicit), id);
+        let defaults = text
+            .replace("torque_max = 2.5", "torque_max = 2.5\ncounts_per_revolution = 4096\nencoder_sign = 1");
+        assert_eq!(same(&defaults), id);
+        for changed in [
+            text.replacen("anchor = [-2.0, -1.4, 3.5]", "anchor = [-2.0, -1.4, 3.4]", 1),
+            text.replace("t_min = 5.0", "t_min = 5.5"),
+            text.replace("torque_max = 2.5", "torque_max = 2.5\ncounts_per_revolution = 8192"),
+            text.replace("torque_max = 2.5", "torque_max = 2.5\nencoder_sign = [1, 1, 1, 1, 1, 1, 1, -1]"),
+            text.replace("name = \"suspended-8\"", "name = \"suspended-8b\""),
+            text.replace("com = [0.0, 0.0, -0.1]", "com = [0.0, 0.0, -0.1000001]"),
+        ] {
+            assert_ne!(same(&changed), id, "{changed}");
+        }
+        let ipanema = RobotFile::load(root.join("robots/ipanema1.toml")).unwrap().identity();
+        assert_ne!(ipanema.hash, id.hash);
+        assert_eq!(format!("{ipanema}"), format!("ipanema1#{:016x}", ipanema.hash));
     }
 
     /// Errors carry `toml`'s span as a line and column, and the checks of

@@ -1,6 +1,7 @@
 //! Host checks and tests, each counted as passed or failed.
 
 use std::{
+    ffi::OsStr,
     io::{BufRead, BufReader},
     process::{Command, Stdio},
 };
@@ -38,10 +39,18 @@ pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
 
 /// Runs a command with its output shown; an error saying what failed.
 pub fn run_step(program: &str, args: &[&str]) -> Result<(), String> {
+    run_step_with(program, args, &[])
+}
+
+/// [`run_step`] with environment variables set for the command.
+pub fn run_step_with(program: &str, args: &[&str], env: &[(&str, &OsStr)]) -> Result<(), String> {
     let shown = if program == env!("CARGO") { "cargo" } else { program };
     println!("==> {shown} {}", args.join(" "));
-    let status =
-        Command::new(program).args(args).status().map_err(|e| format!("cannot run {program}: {e}"))?;
+    let status = Command::new(program)
+        .args(args)
+        .envs(env.iter().copied())
+        .status()
+        .map_err(|e| format!("cannot run {program}: {e}"))?;
     if status.success() {
         Ok(())
     } else {

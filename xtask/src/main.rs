@@ -7,6 +7,13 @@
 //!   lints, the `no_std` build, the host tests, the firmware under QEMU), and
 //!   `N passed, N failed` last (exit code 1 if any failed).
 //! * `cargo xtask e2e`: only the end-to-end serial test (part of `test`).
+//!
+//! `run` and `e2e` take `--robot FILE` (default `robots/suspended-8.toml`;
+//! a relative path is taken from the workspace root): the firmware is
+//! built for that robot file (`CDPR_ROBOT`, made absolute) and the host
+//! side derives the same demo trajectory and identity from it. `test` runs
+//! the demo and the end-to-end test for every robot of
+//! [`firmware::TEST_ROBOTS`].
 
 mod checks;
 mod e2e;
@@ -18,38 +25,73 @@ use std::process::exit;
 use checks::{cargo_test, check, Tally};
 use firmware::TARGET;
 
+const USAGE: &str =
+    "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE]";
+
 fn main() {
-    let task = std::env::args().nth(1).unwrap_or_default();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let task = args.first().cloned().unwrap_or_default();
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     if let Err(e) = std::env::set_current_dir(&root) {
         eprintln!("cannot enter the workspace root: {e}");
         exit(2);
     }
-    match task.as_str() {
-        "run" => run(),
-        "test" => test(),
-        "e2e" => e2e(),
+    let robot = match robot_option(&args[args.len().min(1)..]) {
+        Ok(robot) => robot,
+        Err(e) => {
+            eprintln!("{e}\n{USAGE}");
+            exit(2);
+        }
+    };
+    match (task.as_str(), robot) {
+        ("run", robot) => run(robot.as_deref().unwrap_or(firmware::DEFAULT_ROBOT)),
+        ("test", None) => test(),
+        ("e2e", robot) => e2e(robot.as_deref().unwrap_or(firmware::DEFAULT_ROBOT)),
         _ => {
-            eprintln!("usage: cargo xtask run | cargo xtask test | cargo xtask e2e");
+            eprintln!("{USAGE}");
             exit(2);
         }
     }
 }
 
-/// The firmware in QEMU on its demo trajectory.
-fn run() {
-    if let Err(e) = firmware::setup().and_then(|()| firmware::run_demo()) {
+/// `--robot FILE` or `--robot=FILE` among `args` (nothing else is taken).
+fn robot_option(args: &[String]) -> Result<Option<String>, String> {
+    match args {
+        [] => Ok(None),
+        [flag, file] if flag == "--robot" => Ok(Some(file.clone())),
+        [one] if one.starts_with("--robot=") => Ok(Some(one["--robot=".len()..].to_string())),
+        other => Err(format!("unexpected arguments {other:?}")),
+    }
+}
+
+/// The robot file `file` (from the workspace root) as an absolute path, or exit.
+fn robot_or_exit(file: &str) -> std::path::PathBuf {
+    match firmware::robot_path(file) {
+        Ok(path) => path,
+        Err(e) => {
+            eprintln!("error: {e}");
+            exit(2);
+        }
+    }
+}
+
+/// The firmware for `robot` in QEMU on its demo trajectory.
+fn run(robot: &str) {
+    let robot = robot_or_exit(robot);
+    if let Err(e) = firmware::setup().and_then(|()| firmware::run_demo(&robot)) {
         eprintln!("error: {e}");
         exit(1);
     }
 }
 
-/// Only the end-to-end serial test (part of `test`), for working on it.
-fn e2e() {
+/// Only the end-to-end serial test (part of `test`) for `robot`, for
+/// working on it.
+fn e2e(robot: &str) {
+    let robot = robot_or_exit(robot);
     let mut tally = Tally::default();
-    match firmware::setup().and_then(|()| firmware::build_product()) {
+    match firmware::setup().and_then(|()| firmware::build_product(&robot)) {
         Ok(()) => {
-            for (name, result) in e2e::run() {
+            for (name, result) in e2e::run(&robot) {
                 match &result {
                     Ok(detail) => println!("==> end-to-end: {name}: ok ({detail})"),
                     Err(detail) => println!("==> end-to-end: {name}: FAILED ({detail})"),

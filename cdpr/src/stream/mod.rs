@@ -18,7 +18,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use cdpr_control::link::SetpointRange;
-use cdpr_control::protocol::Telemetry;
+use cdpr_control::protocol::{Identity, Telemetry};
 use clap::Args;
 
 use crate::CliError;
@@ -264,8 +264,10 @@ impl std::fmt::Display for Report {
 
 /// The plan from the arguments, checked against the robot's setpoint
 /// range: every input error before anything is sent.
-pub fn plan(args: &StreamArgs) -> Result<(Plan, cdpr_control::ControlRobot), CliError> {
+pub fn plan(args: &StreamArgs) -> Result<(Plan, Identity), CliError> {
     let file = robot_file::RobotFile::load(&args.robot).map_err(|e| CliError::input(e.to_string()))?;
+    let id = file.identity();
+    let identity = Identity::new(&id.name, id.hash, 6, 8);
     let robot = file.to_robot::<f32, 6, 8>().map_err(|e| {
         CliError::input(format!("{}: {e} (the firmware runs 6 DOF x 8 cables)", args.robot.display()))
     })?;
@@ -275,7 +277,7 @@ pub fn plan(args: &StreamArgs) -> Result<(Plan, cdpr_control::ControlRobot), Cli
         (None, None) => return Err(CliError::input("give --poses or --waypoints")),
     };
     plan.check(path, &SetpointRange::for_robot(&robot))?;
-    Ok((plan, robot))
+    Ok((plan, identity))
 }
 
 /// The feedback scheme's wire number from its name.
@@ -291,7 +293,7 @@ pub fn feedback_id(name: &str) -> Result<u8, CliError> {
 /// Runs `cdpr stream`; `status` gets the live line, `interrupt` is set by
 /// Ctrl-C.
 pub fn run(args: &StreamArgs, status: &mut dyn Write, interrupt: &AtomicBool) -> Result<Report, CliError> {
-    let (plan, _robot) = plan(args)?;
+    let (plan, identity) = plan(args)?;
     let feedback = args.feedback.as_deref().map(feedback_id).transpose()?;
     if args.lead == 0 || args.lead > 250 {
         return Err(CliError::input(format!(
@@ -312,7 +314,7 @@ pub fn run(args: &StreamArgs, status: &mut dyn Write, interrupt: &AtomicBool) ->
     let mut session = Session::new(link, options);
     let mut watch =
         Watch { csv, status, shown: None, samples: 0, tensions: (f32::INFINITY, f32::NEG_INFINITY) };
-    let result = session.stream(&plan.points, &mut watch, interrupt);
+    let result = session.stream(&plan.points, &identity, &mut watch, interrupt);
     let _ = writeln!(watch.status);
     if let Some(csv) = watch.csv.take() {
         csv.finish()?;

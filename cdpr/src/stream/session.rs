@@ -10,7 +10,8 @@ use std::time::{Duration, Instant};
 
 use cdpr_control::point_buffer::START_DELAY_CYCLES;
 use cdpr_control::protocol::{
-    encode, DeviceMessage, FrameDecoder, HostMessage, Reason, State, Telemetry, TrajectoryPoint, MAX_FRAME,
+    encode, DeviceMessage, FrameDecoder, HostMessage, Identity, Reason, State, Telemetry, TrajectoryPoint,
+    MAX_FRAME,
 };
 
 use super::transport::{Pacer, Transport};
@@ -68,6 +69,8 @@ pub enum SessionError {
     Refused(&'static str, String),
     /// The board is not where a session can start.
     NotReady(String),
+    /// The board was built for another robot: its identity, and the file's.
+    WrongRobot(String, String),
     /// Reading or writing the link failed.
     Io(io::Error),
 }
@@ -86,6 +89,9 @@ impl std::fmt::Display for SessionError {
                 write!(f, "{what} refused by the board (last rejection: {why})")
             }
             SessionError::NotReady(why) => write!(f, "{why}"),
+            SessionError::WrongRobot(board, file) => {
+                write!(f, "the board was built for {board}, not for {file}: nothing sent")
+            }
             SessionError::Io(e) => write!(f, "link: {e}"),
         }
     }
@@ -126,6 +132,18 @@ pub struct Session {
     start: Instant,
     last_heard: Instant,
     last: Option<Telemetry>,
+    identity: Option<Identity>,
+}
+
+/// `name#hash` of an identity (as `robot_file::RobotIdentity` shows it).
+pub fn identity_text(i: &Identity) -> String {
+    format!(
+        "{}#{:016x} ({} DOF x {} cables)",
+        i.name().unwrap_or("<malformed name>"),
+        i.hash,
+        i.dof,
+        i.cables
+    )
 }
 
 impl Session {
@@ -140,6 +158,7 @@ impl Session {
             start: now,
             last_heard: now,
             last: None,
+            identity: None,
         }
     }
 
@@ -164,15 +183,22 @@ impl Session {
         let n = self.link.read_some(&mut buf)?;
         let mut got = 0;
         for &b in &buf[..n] {
-            if let Some(Ok(DeviceMessage::Telemetry(t))) = self.decoder.push::<DeviceMessage>(b) {
-                self.last_heard = Instant::now();
-                let mut progress = progress;
-                if t.buffer_fill > 0 || t.buffer_lead_ms > 0 {
-                    progress.played_ms = t.setpoint_seq;
+            match self.decoder.push::<DeviceMessage>(b) {
+                Some(Ok(DeviceMessage::Identity(i))) => {
+                    self.last_heard = Instant::now();
+                    self.identity = Some(i);
                 }
-                observer.telemetry(self.start.elapsed().as_secs_f64(), &t, progress);
-                self.last = Some(t);
-                got += 1;
+                Some(Ok(DeviceMessage::Telemetry(t))) => {
+                    self.last_heard = Instant::now();
+                    let mut progress = progress;
+                    if t.buffer_fill > 0 || t.buffer_lead_ms > 0 {
+                        progress.played_ms = t.setpoint_seq;
+                    }
+                    observer.telemetry(self.start.elapsed().as_secs_f64(), &t, progress);
+                    self.last = Some(t);
+                    got += 1;
+                }
+                _ => {}
             }
         }
         if self.last_heard.elapsed() > self.options.silence {
@@ -212,17 +238,39 @@ impl Session {
         self.last.ok_or(SessionError::Silent(silence))
     }
 
-    /// Streams `points` (times from 0 ms): homes at the first pose, selects
+    /// Asks the board which robot it was built for (`Identify`), within
+    /// the request timeout.
+    pub fn identify(&mut self, observer: &mut dyn Observer) -> Result<Identity, SessionError> {
+        self.identity = None;
+        self.send(&HostMessage::Identify)?;
+        let until = Instant::now() + self.options.request_timeout;
+        while Instant::now() < until {
+            self.poll(observer, Progress::default())?;
+            if let Some(i) = self.identity {
+                return Ok(i);
+            }
+        }
+        Err(SessionError::Refused("Identify", self.rejection()))
+    }
+
+    /// Streams `points` (times from 0 ms) to a board built for `expected`
+    /// (refused before anything else is sent otherwise): homes at the first pose, selects
     /// the feedback and method if asked, fills the buffer, enables once the
     /// stream plays, keeps the buffer `lead_ms` ahead, and disables when
     /// the last point has played or `interrupt` is set.
     pub fn stream(
         &mut self,
         points: &[TrajectoryPoint],
+        expected: &Identity,
         observer: &mut dyn Observer,
         interrupt: &AtomicBool,
     ) -> Result<Ending, SessionError> {
-        let first = self.connect(observer)?;
+        self.connect(observer)?;
+        let board = self.identify(observer)?;
+        if board != *expected {
+            return Err(SessionError::WrongRobot(identity_text(&board), identity_text(expected)));
+        }
+        let first = self.last.ok_or(SessionError::Silent(self.options.silence))?;
         let total = points.len();
         let end_ms = points.last().map_or(0, |p| p.time_ms);
         let mut progress = Progress { sent: 0, total, played_ms: 0, end_ms };

@@ -4,12 +4,13 @@
 //! Every millisecond ([`firmware::periodic::Releases`]) the `control` task
 //! takes up to `cdpr_control::RECEIVE_BUDGET` of the bytes USART1 received, lets [`cdpr_control::ControlLoop`]
 //! act on the frames (setpoints, enable, disable, clear fault, telemetry
-//! rate, method, home, feedback scheme), reads the winch encoders, solves
+//! rate, method, home, feedback scheme, identify), reads the winch encoders, solves
 //! the newest setpoint (kinematics, wrench with the d'Alembert terms, the
 //! pose estimate and the selected feedback, warm-started barycenter, motor
 //! torques), lets the
 //! safety state machine decide what reaches the winches, writes the drives
-//! and queues telemetry, which a low-priority task writes to the line.
+//! and queues telemetry (and, after an `Identify`, the robot's identity
+//! `firmware::robot::IDENTITY`), which a low-priority task writes to the line.
 //! TIM2 times every step; a late cycle counts as an overrun, which the
 //! state machine sees.
 
@@ -22,7 +23,7 @@ mod app {
     use cdpr_protocol::{encode, DeviceMessage, MAX_FRAME};
     use firmware::periodic::Releases;
     use firmware::serial::{self, Receiver, Transmitter, RX_QUEUE, TX_QUEUE};
-    use firmware::{bsp, clock, drives, stack, Board};
+    use firmware::{bsp, clock, drives, robot, stack, Board};
     use heapless::spsc::{Consumer, Producer, Queue};
 
     #[shared]
@@ -45,7 +46,7 @@ mod app {
         let (mut board, rest) = Board::start(cx.device);
         // QEMU: the encoders' stand-in rests where the demo trajectory
         // starts (the pose the end-to-end test homes with).
-        board.place_stand_in(cdpr_demo::trajectory::setpoint(0).pose.into());
+        board.place_stand_in(firmware::robot::DEMO.setpoint(0).pose.into());
         let (rx_in, rx) = cx.local.rx_queue.split();
         let (tx, tx_out) = cx.local.tx_queue.split();
         serial::init(rest.usart1, &rest.rcc);
@@ -89,6 +90,7 @@ mod app {
         );
         let mut frame = [0u8; MAX_FRAME];
         let mut overrun = false;
+        let mut identify = false;
         let mut last_state = control.supervisor().state();
         let mut releases = Releases::start().await;
         loop {
@@ -101,13 +103,24 @@ mod app {
             control.record_cost(clock::ticks_to_units(clock.since(start)));
             // The encoders' stand-in (QEMU), outside the measured step.
             drives.advance(control.last_feasible_lengths());
+            // The answer to `Identify` (kept until it fits the transmit
+            // queue), then the cycle's telemetry (best effort).
+            identify |= control.take_identify();
+            let mut queued = false;
+            if identify {
+                if let Ok(n) = encode(&DeviceMessage::Identity(robot::IDENTITY), &mut frame) {
+                    identify = !serial::queue_frame(tx, &frame[..n]);
+                    queued |= !identify;
+                }
+            }
             if let Some(telemetry) = report.telemetry {
                 if let Ok(n) = encode(&DeviceMessage::Telemetry(telemetry), &mut frame) {
-                    if serial::queue_frame(tx, &frame[..n]) {
-                        // Already running: it will find the new bytes.
-                        let _ = transmit::spawn();
-                    }
+                    queued |= serial::queue_frame(tx, &frame[..n]);
                 }
+            }
+            if queued {
+                // Already running: it will find the new bytes.
+                let _ = transmit::spawn();
             }
             if report.state != last_state {
                 let (stack, _) = stack::stack_high_water();
