@@ -515,6 +515,11 @@ impl ControlLoop {
         }
     }
 
+    /// The pose of a `Home` the next step carries out, if one is pending.
+    pub fn pending_home(&self) -> Option<&Pose6> {
+        self.pending_home.as_ref()
+    }
+
     /// Whether an `Identify` arrived since the last call (which clears
     /// it): the caller, which knows the robot it was built for, sends
     /// `DeviceMessage::Identity` (the firmware does after the cycle's step).

@@ -71,6 +71,8 @@ fn the_hermite_reproduces_a_cubic_with_its_derivatives() {
         let s = sample.unwrap();
         let t_ms = now - 100 - START_DELAY_CYCLES;
         assert_eq!(s.seq, t_ms);
+        // The points carry f32: near 1.8 m a pose is rounded by 1.2e-7 m,
+        // which the second derivative over 10 ms scales to about 7e-3 m/s^2.
         let (p, v, a) = cubic.at(f64::from(t_ms) * 1e-3);
         for i in 0..6 {
             assert!(
@@ -80,13 +82,13 @@ fn the_hermite_reproduces_a_cubic_with_its_derivatives() {
                 p[i]
             );
             assert!(
-                (f64::from(s.velocity[i]) - v[i]).abs() < 5e-4,
+                (f64::from(s.velocity[i]) - v[i]).abs() < 5e-5,
                 "t {t_ms}, {i}: v {} vs {}",
                 s.velocity[i],
                 v[i]
             );
             assert!(
-                (f64::from(s.acceleration[i]) - a[i]).abs() < 0.05,
+                (f64::from(s.acceleration[i]) - a[i]).abs() < 1e-2,
                 "t {t_ms}, {i}: a {} vs {}",
                 s.acceleration[i],
                 a[i]

@@ -37,7 +37,11 @@
 //! 6. after ClearFault the host starts a new session: the poison
 //!    frame (seq 0xFFFFFFFF, NaN x), numbering from 1 again, methods the
 //!    board does not offer refused (`rejected_method`), `puncture`
-//!    selected and compared with the host's f64 puncture.
+//!    selected and compared with the host's f64 puncture;
+//! 7. in a fresh QEMU, `cdpr stream`'s own session (`crate::e2e_stream`)
+//!    drives the product at the board's line rate: identity, home, 100 Hz
+//!    trajectory points into the buffer, enable, disable; tensions and
+//!    torques against the host's f64 at the Hermite setpoint it played.
 
 use std::{
     collections::HashMap,
@@ -77,7 +81,7 @@ const TELEMETRY_PERIOD: u16 = 10;
 /// all inside the workspace).
 const TRACKING_SETPOINTS: u32 = 1200;
 
-type Robot68 = Robot<f64, 6, 8>;
+pub(crate) type Robot68 = Robot<f64, 6, 8>;
 
 /// What the reader thread collected.
 #[derive(Default)]
@@ -239,7 +243,11 @@ impl Session {
 
 /// The host's reference: `f64` barycenter tensions and conventions motor torques
 /// for a setpoint, from the robot file.
-fn reference(robot: &Robot68, method: Method, s: &Setpoint) -> Result<([f64; 8], [f64; 8]), String> {
+pub(crate) fn reference(
+    robot: &Robot68,
+    method: Method,
+    s: &Setpoint,
+) -> Result<([f64; 8], [f64; 8]), String> {
     let v = |a: &[f32; 6]| SVector::<f64, 6>::from_fn(|i, _| f64::from(a[i]));
     let (w, f) = robot
         .wrench_problem(&v(&s.pose), &SVector::zeros(), Some((&v(&s.velocity), &v(&s.acceleration))))
@@ -344,6 +352,7 @@ pub fn run(robot: &Path) -> Vec<Check> {
                         stalls.len()
                     );
                 }
+                results.push(crate::e2e_stream::run(robot));
                 return results;
             }
             Err(e) if attempt < SESSION_ATTEMPTS => {
@@ -383,28 +392,28 @@ pub fn run(robot: &Path) -> Vec<Check> {
 const SESSION_ATTEMPTS: usize = 40;
 
 /// One check's name and outcome.
-type Check = (String, Result<String, String>);
+pub(crate) type Check = (String, Result<String, String>);
 
 /// The host's tolerances on the firmware's tensions, N, and torques, N m.
 #[derive(Clone, Copy)]
-struct Tolerances {
-    tension: f64,
-    torque: f64,
+pub(crate) struct Tolerances {
+    pub(crate) tension: f64,
+    pub(crate) torque: f64,
 }
 
 /// What the host knows of the firmware's robot: the robot in `f64`, the
 /// tolerances for it, its identity and its demo trajectory.
-struct HostRobot {
-    robot: Robot68,
-    tolerances: Tolerances,
-    identity: robot_file::RobotIdentity,
-    params: Params,
+pub(crate) struct HostRobot {
+    pub(crate) robot: Robot68,
+    pub(crate) tolerances: Tolerances,
+    pub(crate) identity: robot_file::RobotIdentity,
+    pub(crate) params: Params,
 }
 
 /// The robot file's robot in `f64`, the tolerances for it, its identity
 /// and its demo trajectory (derived as the firmware's `build.rs` does,
 /// with the same function).
-fn host_robot(file: &Path) -> Result<HostRobot, String> {
+pub(crate) fn host_robot(file: &Path) -> Result<HostRobot, String> {
     let shown = file.display();
     let parsed = robot_file::RobotFile::load(file).map_err(|e| format!("{shown}: {e}"))?;
     let robot = parsed.to_robot::<f64, 6, 8>().map_err(|e| format!("{shown}: {e}"))?;

@@ -7,6 +7,9 @@
 //!   lints, the `no_std` build, the host tests, the firmware under QEMU), and
 //!   `N passed, N failed` last (exit code 1 if any failed).
 //! * `cargo xtask e2e`: only the end-to-end serial test (part of `test`).
+//! * `cargo xtask qemu [--robot FILE] [--tcp PORT]`: the product firmware
+//!   for that robot in QEMU, in real time, its USART1 on a local TCP port
+//!   (default 4444) for `cdpr stream --tcp 127.0.0.1:PORT`, until Ctrl-C.
 //!
 //! `run` and `e2e` take `--robot FILE` (default `robots/suspended-8.toml`;
 //! a relative path is taken from the workspace root): the firmware is
@@ -17,6 +20,7 @@
 
 mod checks;
 mod e2e;
+mod e2e_stream;
 mod elf;
 mod firmware;
 
@@ -25,8 +29,10 @@ use std::process::exit;
 use checks::{cargo_test, check, Tally};
 use firmware::TARGET;
 
-const USAGE: &str =
-    "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE]";
+const USAGE: &str = "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE] | cargo xtask qemu [--robot FILE] [--tcp PORT]";
+
+/// The TCP port of `cargo xtask qemu` unless `--tcp` says otherwise.
+const QEMU_PORT: u16 = 4444;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -35,6 +41,9 @@ fn main() {
     if let Err(e) = std::env::set_current_dir(&root) {
         eprintln!("cannot enter the workspace root: {e}");
         exit(2);
+    }
+    if task == "qemu" {
+        qemu(&args[1..]);
     }
     let robot = match robot_option(&args[args.len().min(1)..]) {
         Ok(robot) => robot,
@@ -71,6 +80,55 @@ fn robot_or_exit(file: &str) -> std::path::PathBuf {
         Err(e) => {
             eprintln!("error: {e}");
             exit(2);
+        }
+    }
+}
+
+/// `cargo xtask qemu`: builds the product for the robot and runs it in
+/// QEMU (real time, `sleep=on`) with USART1 on a TCP server port; exits
+/// with QEMU (Ctrl-C ends both).
+fn qemu(args: &[String]) -> ! {
+    let (mut robot, mut port) = (firmware::DEFAULT_ROBOT.to_string(), QEMU_PORT);
+    let mut i = 0;
+    while i < args.len() {
+        match (args[i].as_str(), args.get(i + 1)) {
+            ("--robot", Some(file)) => robot = file.clone(),
+            ("--tcp", Some(p)) => match p.parse() {
+                Ok(p) => port = p,
+                Err(_) => {
+                    eprintln!("--tcp {p}: a port number\n{USAGE}");
+                    exit(2);
+                }
+            },
+            _ => {
+                eprintln!("unexpected arguments {:?}\n{USAGE}", &args[i..]);
+                exit(2);
+            }
+        }
+        i += 2;
+    }
+    let robot = robot_or_exit(&robot);
+    if let Err(e) = firmware::setup().and_then(|()| firmware::build_product(&robot)) {
+        eprintln!("error: {e}");
+        exit(1);
+    }
+    match e2e_stream::start_qemu(Some(port), true) {
+        Ok(mut q) => {
+            println!(
+                "==> the firmware for {} runs in QEMU; its serial link is tcp 127.0.0.1:{port}",
+                robot.display()
+            );
+            println!(
+                "==> e.g. cargo run -p cdpr --release -- stream --robot {} --waypoints WAYPOINTS.csv --tcp 127.0.0.1:{port}",
+                robot.display()
+            );
+            println!("==> Ctrl-C stops it");
+            let status = q.wait();
+            exit(if status.is_ok_and(|s| s.success()) { 0 } else { 1 });
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            exit(1);
         }
     }
 }

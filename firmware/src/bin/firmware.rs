@@ -99,6 +99,14 @@ mod app {
             // At most RECEIVE_BUDGET bytes, whatever arrives; the rest waits.
             control.receive_bytes(|| rx.dequeue());
             control.record_dropped(serial::dropped());
+            // QEMU has no platform: the stand-in's cables are where the
+            // host says at homing (nothing on the board).
+            // A Home is carried out only in Disabled.
+            if let Some(pose) = control.pending_home().copied() {
+                if control.supervisor().state() == cdpr_control::protocol::State::Disabled {
+                    let _ = drives.place_stand_in(control.controller().robot(), &pose);
+                }
+            }
             let report = control.step(&*clock, drives, overrun);
             control.record_cost(clock::ticks_to_units(clock.since(start)));
             // The encoders' stand-in (QEMU), outside the measured step.
