@@ -249,8 +249,18 @@ fn attempt_once(
         .filter(|t| t.buffer_fill == 0)
         .count();
     let (tol_t, tol_tau) = (host.tolerances.tension, host.tolerances.torque);
+    // The product's whole cycle (receive and decode, the step) as the
+    // board reports it, while the stream plays.
+    let mut costs: Vec<u32> = samples
+        .iter()
+        .filter(|t| matches!(t.state, State::Enabled | State::Holding))
+        .map(|t| t.step_cost)
+        .collect();
+    costs.sort_unstable();
+    let cost_max = costs.last().copied().unwrap_or(0);
+    let cost_median = costs.get(costs.len() / 2).copied().unwrap_or(0);
     let figures = format!(
-        "{} points in {took:.1} s; {compared} Enabled samples compared: worst |t - t_host| {worst_t:.2e} N (tolerance {tol_t:.2e}), |tau - tau_host| {worst_tau:.2e} N m (tolerance {tol_tau:.2e}); buffer lead at most {} ms; {rejected} frames rejected",
+        "{} points in {took:.1} s; product step with decoding median {cost_median}, max {cost_max} instructions; {compared} Enabled samples compared: worst |t - t_host| {worst_t:.2e} N (tolerance {tol_t:.2e}), |tau - tau_host| {worst_tau:.2e} N m (tolerance {tol_tau:.2e}); buffer lead at most {} ms; {rejected} frames rejected",
         points.len(),
         samples.iter().map(|t| t.buffer_lead_ms).max().unwrap_or(0)
     );
