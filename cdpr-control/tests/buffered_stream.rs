@@ -4,54 +4,47 @@
 
 mod common;
 
+use common::IdealDrives;
+
 use cdpr_control::point_buffer::START_DELAY_CYCLES;
 use cdpr_control::protocol::{HostMessage, Reason, Rejection, Setpoint, State, TrajectoryPoint};
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::{ControlLoop, NoClock, StepReport, WinchDrives, WinchReading, CABLES};
-use tension_core::Method;
+use cdpr_control::{ControlLoop, NoClock, StepReport};
 
 const POSE: [f32; 6] = [0.1, -0.2, 1.9, 0.02, -0.01, 0.05];
 
-/// An ideal plant that is where the newest setpoint is.
-struct Plant([WinchReading; CABLES]);
-
-impl WinchDrives for Plant {
-    type Error = ();
-    fn apply(&mut self, _: &[f32; CABLES]) -> Result<(), ()> {
-        Ok(())
-    }
-    fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
-        Ok(())
-    }
-    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), ()> {
-        *readings = self.0;
-        Ok(())
-    }
-}
-
 struct Rig {
     control: ControlLoop,
-    plant: Plant,
+    plant: IdealDrives,
 }
 
 impl Rig {
     fn homed() -> Self {
-        let mut control = ControlLoop::new(
-            common::suspended8(),
-            Method::Barycenter,
-            common::setpoint_range(),
-            SafetyLimits::DEFAULT,
-        )
-        .unwrap();
-        let mut plant = Plant(common::readings_at(&control, POSE));
+        let mut control = common::control_loop();
+        let mut plant = IdealDrives { readings: common::readings_at(&control, POSE) };
         common::home(&mut control, &mut plant, POSE);
         control.receive(HostMessage::TelemetryPeriod(1));
         Self { control, plant }
     }
 
+    /// Homed, 300 ms of points at rest at `POSE` played past the start
+    /// delay, and enabled on them.
+    fn enabled_on_a_resting_stream() -> Self {
+        let mut rig = Self::homed();
+        for k in 0..=30 {
+            rig.control.receive(HostMessage::Point(along_x(10 * k, 0.0)));
+        }
+        for _ in 0..=START_DELAY_CYCLES {
+            rig.step();
+        }
+        rig.control.receive(HostMessage::Enable);
+        assert_eq!(rig.step().state, State::Enabled);
+        rig
+    }
+
     fn step(&mut self) -> StepReport {
         let r = self.control.step(&NoClock, &mut self.plant, false);
-        common::follow(&self.control, &mut self.plant.0);
+        common::follow(&self.control, &mut self.plant.readings);
         r
     }
 }
@@ -127,15 +120,7 @@ fn a_buffered_stream_enables_tracks_and_goes_stale_when_dry() {
 
 #[test]
 fn late_points_are_rejected_while_enabled_and_a_setpoint_ends_the_stream() {
-    let mut rig = Rig::homed();
-    for k in 0..=30 {
-        rig.control.receive(HostMessage::Point(along_x(10 * k, 0.0)));
-    }
-    for _ in 0..=START_DELAY_CYCLES {
-        rig.step();
-    }
-    rig.control.receive(HostMessage::Enable);
-    assert_eq!(rig.step().state, State::Enabled);
+    let mut rig = Rig::enabled_on_a_resting_stream();
     rig.control.receive(HostMessage::Point(along_x(300, 0.0)));
     assert_eq!(rig.control.counters().last_rejection, Rejection::Late);
     rig.control.receive(HostMessage::Point(along_x(290, 0.0)));
@@ -163,15 +148,7 @@ fn late_points_are_rejected_while_enabled_and_a_setpoint_ends_the_stream() {
 
 #[test]
 fn disable_ends_the_stream_and_a_new_one_starts_from_any_time() {
-    let mut rig = Rig::homed();
-    for k in 0..=30 {
-        rig.control.receive(HostMessage::Point(along_x(10 * k, 0.0)));
-    }
-    for _ in 0..=START_DELAY_CYCLES {
-        rig.step();
-    }
-    rig.control.receive(HostMessage::Enable);
-    assert_eq!(rig.step().state, State::Enabled);
+    let mut rig = Rig::enabled_on_a_resting_stream();
     rig.control.receive(HostMessage::Disable);
     let r = rig.step();
     assert_eq!((r.state, r.telemetry.unwrap().buffer_fill), (State::Disabled, 0));

@@ -3,28 +3,12 @@
 
 mod common;
 
+use common::IdealDrives;
+
 use cdpr_control::feedback::{extrapolate, pose_error};
 use cdpr_control::protocol::{HostMessage, Reason, Setpoint, State};
 use cdpr_control::setpoint::Pose6;
-use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::{ControlLoop, NoClock, WinchReading, CABLES};
-use tension_core::Method;
-
-struct Null([WinchReading; CABLES]);
-
-impl cdpr_control::WinchDrives for Null {
-    type Error = ();
-    fn apply(&mut self, _: &[f32; CABLES]) -> Result<(), ()> {
-        Ok(())
-    }
-    fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
-        Ok(())
-    }
-    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), ()> {
-        *readings = self.0;
-        Ok(())
-    }
-}
+use cdpr_control::{ControlLoop, NoClock};
 
 const POSE: [f32; 6] = [0.1, -0.2, 1.9, 0.02, -0.01, 0.05];
 
@@ -59,11 +43,9 @@ fn extrapolation_is_constant_acceleration() {
 
 #[test]
 fn lengths_off_the_setpoint_fault_only_when_enabled() {
-    let robot = common::suspended8();
-    let mut control =
-        ControlLoop::new(robot, Method::Barycenter, common::setpoint_range(), SafetyLimits::DEFAULT).unwrap();
+    let mut control = common::control_loop();
     let setpoint = |seq| Setpoint { seq, pose: POSE, velocity: [0.0; 6], acceleration: [0.0; 6] };
-    let mut null = Null(common::readings_at(&control, POSE));
+    let mut null = IdealDrives { readings: common::readings_at(&control, POSE) };
     common::home(&mut control, &mut null, POSE);
     // The platform somewhere else along z: lengths that fit a pose (the
     // estimator accepts them), `dz` from the setpoint's.
@@ -80,21 +62,21 @@ fn lengths_off_the_setpoint_fault_only_when_enabled() {
     let (near, near_worst) = platform_at(&control, 0.03);
     assert!(far_worst > 0.02 && near_worst < 0.02, "{far_worst} {near_worst}");
     // Disabled: no fault, but Enable is refused where the platform is not.
-    null.0 = far;
+    null.readings = far;
     control.receive(HostMessage::Setpoint(setpoint(1)));
     control.receive(HostMessage::Enable);
     let r = control.step(&NoClock, &mut null, false);
     assert_eq!((r.state, r.reason), (State::Disabled, Reason::None));
     assert_eq!(control.counters().faults, 0);
-    null.0 = common::readings_at(&control, POSE);
+    null.readings = common::readings_at(&control, POSE);
     control.receive(HostMessage::Setpoint(setpoint(2)));
     control.receive(HostMessage::Enable);
     assert_eq!(control.step(&NoClock, &mut null, false).state, State::Enabled);
     // Within the limit: nothing; beyond it: Fault, tracking, this cycle.
-    null.0 = near;
+    null.readings = near;
     control.receive(HostMessage::Setpoint(setpoint(3)));
     assert_eq!(control.step(&NoClock, &mut null, false).state, State::Enabled);
-    null.0 = far;
+    null.readings = far;
     control.receive(HostMessage::Setpoint(setpoint(4)));
     let r = control.step(&NoClock, &mut null, false);
     assert!(matches!(r.estimate, Some(Ok(_))), "{:?}", r.estimate);

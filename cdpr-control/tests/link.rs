@@ -5,32 +5,14 @@
 
 mod common;
 
-use cdpr_control::drives::WinchDrives;
+use common::IdealDrives;
+
 use cdpr_control::protocol::{encode, HostMessage, Reason, Rejection, Setpoint, State, MAX_FRAME};
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::{ControlLoop, MethodSet, NoClock, StepReport, WinchReading, CABLES, RECEIVE_BUDGET};
+use cdpr_control::{ControlLoop, MethodSet, NoClock, StepReport, RECEIVE_BUDGET};
 use tension_core::Method;
 
 const LIMITS: SafetyLimits = SafetyLimits::DEFAULT;
-
-/// Drives that take any command; their encoders read an ideal plant.
-struct Nothing {
-    readings: [WinchReading; CABLES],
-}
-
-impl WinchDrives for Nothing {
-    type Error = ();
-    fn apply(&mut self, _: &[f32; CABLES]) -> Result<(), ()> {
-        Ok(())
-    }
-    fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
-        Ok(())
-    }
-    fn read(&mut self, readings: &mut [WinchReading; CABLES]) -> Result<(), ()> {
-        *readings = self.readings;
-        Ok(())
-    }
-}
 
 /// At rest low in the middle (feasible).
 fn low(seq: u32) -> Setpoint {
@@ -54,7 +36,7 @@ fn bytes(message: &HostMessage) -> Vec<u8> {
 
 struct Rig {
     control: ControlLoop,
-    drives: Nothing,
+    drives: IdealDrives,
 }
 
 impl Rig {
@@ -63,7 +45,7 @@ impl Rig {
             ControlLoop::new(common::suspended8(), Method::Barycenter, common::setpoint_range(), LIMITS)
                 .unwrap();
         control.set_tracking_limit(None);
-        let mut drives = Nothing { readings: common::readings_at(&control, low(0).pose) };
+        let mut drives = IdealDrives { readings: common::readings_at(&control, low(0).pose) };
         common::home(&mut control, &mut drives, low(0).pose);
         Self { control, drives }
     }

@@ -74,3 +74,38 @@ pub fn readings_at(control: &cdpr_control::ControlLoop, pose: [f32; 6]) -> [cdpr
         control.controller().robot().cables(&cdpr_control::setpoint::Pose6::from(pose)).expect("kinematics");
     readings_of(control, c.lengths.as_slice())
 }
+
+/// suspended-8's control loop with the barycenter and the default safety
+/// limits, as the firmware starts it.
+#[allow(dead_code)]
+pub fn control_loop() -> cdpr_control::ControlLoop {
+    cdpr_control::ControlLoop::new(
+        suspended8(),
+        tension_core::Method::Barycenter,
+        setpoint_range(),
+        cdpr_control::supervisor::SafetyLimits::DEFAULT,
+    )
+    .expect("suspended-8's control loop")
+}
+
+/// Drives that take any command and whose encoders read `readings` (an
+/// ideal plant the test moves, e.g. with [`follow`]).
+#[allow(dead_code)]
+pub struct IdealDrives {
+    /// What the encoders read.
+    pub readings: [cdpr_control::WinchReading; 8],
+}
+
+impl cdpr_control::WinchDrives for IdealDrives {
+    type Error = ();
+    fn apply(&mut self, _: &[f32; 8]) -> Result<(), ()> {
+        Ok(())
+    }
+    fn set_brakes(&mut self, _: bool) -> Result<(), ()> {
+        Ok(())
+    }
+    fn read(&mut self, readings: &mut [cdpr_control::WinchReading; 8]) -> Result<(), ()> {
+        *readings = self.readings;
+        Ok(())
+    }
+}
