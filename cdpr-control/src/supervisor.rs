@@ -286,52 +286,48 @@ impl Supervisor {
         match self.state {
             State::Disabled | State::Fault => self.output = self.ramp(now),
             State::Enabled | State::Holding => {
-                let problem = match status {
+                match status {
                     SetpointStatus::Feasible(torques) => {
                         self.state = State::Enabled;
                         self.reason = Reason::None;
                         self.hold_reason = Reason::None;
                         self.last_feasible = *torques;
-                        None
+                        self.output = self.last_feasible;
                     }
-                    SetpointStatus::Infeasible => Some(Reason::Infeasible),
-                    SetpointStatus::Bad => Some(Reason::BadSetpoint),
-                    SetpointStatus::Stale => Some(Reason::Stale),
-                    SetpointStatus::Unobservable => Some(Reason::Estimator),
                     // Neither a problem nor a fresh solution: one cycle
                     // more of the last feasible torques; a hold goes on.
-                    SetpointStatus::FeedbackInfeasible => {
-                        if self.state == State::Holding
-                            && now.wrapping_sub(self.hold_start) >= self.limits.hold_cycles
-                        {
-                            self.enter_fault(now, Reason::HoldTimeout);
-                            self.output = self.ramp(now);
-                        } else {
-                            self.output = self.last_feasible;
-                        }
-                        return self.finish_cycle(before, decisions);
-                    }
-                };
-                match problem {
-                    None => self.output = self.last_feasible,
-                    Some(reason) => {
-                        if self.state == State::Enabled {
-                            self.state = State::Holding;
-                            self.hold_start = now;
-                            self.hold_reason = reason;
-                        }
-                        self.reason = reason;
-                        self.output = self.last_feasible;
-                        if now.wrapping_sub(self.hold_start) >= self.limits.hold_cycles {
-                            self.enter_fault(now, Reason::HoldTimeout);
-                            self.output = self.ramp(now);
-                        }
-                    }
+                    SetpointStatus::FeedbackInfeasible => self.hold_last_feasible(now),
+                    SetpointStatus::Infeasible => self.hold(now, Reason::Infeasible),
+                    SetpointStatus::Bad => self.hold(now, Reason::BadSetpoint),
+                    SetpointStatus::Stale => self.hold(now, Reason::Stale),
+                    SetpointStatus::Unobservable => self.hold(now, Reason::Estimator),
                 }
             }
         }
 
         self.finish_cycle(before, decisions)
+    }
+
+    /// Holding for `reason` (entered now from Enabled, its hold reason
+    /// kept from the hold's start), the last feasible torques held.
+    fn hold(&mut self, now: u32, reason: Reason) {
+        if self.state == State::Enabled {
+            self.state = State::Holding;
+            self.hold_start = now;
+            self.hold_reason = reason;
+        }
+        self.reason = reason;
+        self.hold_last_feasible(now);
+    }
+
+    /// The last feasible torques; in Holding, Fault (`HoldTimeout`) once
+    /// the hold has lasted `hold_cycles`.
+    fn hold_last_feasible(&mut self, now: u32) {
+        self.output = self.last_feasible;
+        if self.state == State::Holding && now.wrapping_sub(self.hold_start) >= self.limits.hold_cycles {
+            self.enter_fault(now, Reason::HoldTimeout);
+            self.output = self.ramp(now);
+        }
     }
 
     /// The cycle's output and what it decided, from the state before it.
