@@ -457,12 +457,13 @@ impl ControlLoop {
                 } else {
                     Err(Rejection::Jump)
                 };
-                if let Err(why) = pushed {
-                    // Counted as its rule says; `accepted` counted the frame.
-                    self.counters.accepted = self.counters.accepted.wrapping_sub(1);
-                    self.counters.reject(why);
-                    if why == Rejection::Jump {
-                        self.buffer.refuse();
+                match pushed {
+                    Ok(()) => self.counters.accepted = self.counters.accepted.wrapping_add(1),
+                    Err(why) => {
+                        self.counters.reject(why);
+                        if why == Rejection::Jump {
+                            self.buffer.refuse();
+                        }
                     }
                 }
             }

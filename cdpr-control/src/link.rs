@@ -329,7 +329,9 @@ impl Link {
                     counters.reject(Rejection::Range);
                     return Some(Event::BadPoint);
                 }
-                Event::Point(p)
+                // Not counted here: the buffer's own rules decide whether
+                // the point is accepted (`ControlLoop` counts it).
+                return Some(Event::Point(p));
             }
             HostMessage::SelectFeedback(id) => match crate::feedback::Scheme::from_wire_id(id) {
                 Some(scheme) => Event::SelectFeedback(scheme),

@@ -121,8 +121,11 @@ fn a_buffered_stream_enables_tracks_and_goes_stale_when_dry() {
 #[test]
 fn late_points_are_rejected_while_enabled_and_a_setpoint_ends_the_stream() {
     let mut rig = Rig::enabled_on_a_resting_stream();
+    let accepted = rig.control.counters().accepted;
     rig.control.receive(HostMessage::Point(along_x(300, 0.0)));
     assert_eq!(rig.control.counters().last_rejection, Rejection::Late);
+    // A refused point is not also counted as accepted.
+    assert_eq!(rig.control.counters().accepted, accepted);
     rig.control.receive(HostMessage::Point(along_x(290, 0.0)));
     assert_eq!(rig.control.counters().rejected_order, 2);
     // A point 1 m away 10 ms later: a jump.
