@@ -215,10 +215,21 @@ impl Session {
         timeout: Duration,
         mut done: impl FnMut(&Telemetry) -> bool,
     ) -> Result<bool, SessionError> {
+        self.wait_until(observer, progress, timeout, |s| s.last.as_ref().is_some_and(&mut done))
+    }
+
+    /// Polls until `done` holds for the session, within `timeout`.
+    fn wait_until(
+        &mut self,
+        observer: &mut dyn Observer,
+        progress: Progress,
+        timeout: Duration,
+        mut done: impl FnMut(&Self) -> bool,
+    ) -> Result<bool, SessionError> {
         let until = Instant::now() + timeout;
         while Instant::now() < until {
             self.poll(observer, progress)?;
-            if self.last.as_ref().is_some_and(&mut done) {
+            if done(self) {
                 return Ok(true);
             }
         }
@@ -243,14 +254,9 @@ impl Session {
     pub fn identify(&mut self, observer: &mut dyn Observer) -> Result<Identity, SessionError> {
         self.identity = None;
         self.send(&HostMessage::Identify)?;
-        let until = Instant::now() + self.options.request_timeout;
-        while Instant::now() < until {
-            self.poll(observer, Progress::default())?;
-            if let Some(i) = self.identity {
-                return Ok(i);
-            }
-        }
-        Err(SessionError::Refused("Identify", self.rejection()))
+        let timeout = self.options.request_timeout;
+        self.wait_until(observer, Progress::default(), timeout, |s| s.identity.is_some())?;
+        self.identity.ok_or_else(|| SessionError::Refused("Identify", self.rejection()))
     }
 
     /// Streams `points` (times from 0 ms) to a board built for `expected`
