@@ -545,7 +545,9 @@ impl ControlLoop {
     /// * An unreadable drive: Fault (`Reason::Encoder`) from Enabled or
     ///   Holding; in any state the homing is forgotten (the count may have
     ///   jumped) and the drive is named in telemetry.
-    /// * An estimator failure while a setpoint solved: Holding
+    /// * Encoder lengths that fit no pose (the estimator's residual beyond
+    ///   its limit): Fault (`Reason::Estimator`) from Enabled or Holding.
+    /// * Another estimator failure while a setpoint solved: Holding
     ///   (`Reason::Estimator`, the last feasible torques held, feedback
     ///   off), a fault if it lasts `hold_cycles`; in Disabled it refuses
     ///   Enable.

@@ -25,10 +25,11 @@
 //! receiver's business: see `cdpr-control`'s link layer.
 //!
 //! Tags and fields are wire-stable: variants and fields are only appended.
-//! The telemetry sample is the largest message: at most 186 bytes of
+//! The telemetry sample is the largest message: at most 190 bytes of
 //! postcard (every counter at `u32::MAX`; `tests/frames.rs` pins it), so
-//! at 115 200 baud (11.5 bytes per ms) one sample every 17 control cycles
-//! or more is sustainable.
+//! at the firmware's 460 800 baud (46 bytes per ms) one sample every 5
+//! control cycles or more is sustainable (the default 10 uses 43 % of the
+//! line: the firmware README's link budget).
 
 #![no_std]
 #![forbid(unsafe_code)]
@@ -41,7 +42,7 @@ pub use messages::*;
 use serde::{de::DeserializeOwned, Serialize};
 
 /// Largest postcard payload of any message, bytes (the telemetry message
-/// is the largest: 186 bytes at most, with every counter at its largest; see
+/// is the largest: 190 bytes at most, with every counter at its largest; see
 /// `tests/frames.rs`).
 pub const MAX_PAYLOAD: usize = 192;
 

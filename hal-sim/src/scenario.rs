@@ -376,7 +376,7 @@ impl Stream {
 pub struct Config {
     /// Integration step, s.
     pub dt: f64,
-    /// Cable-length tracking limit for `ControlLoop::check_lengths`, m.
+    /// Cable-length tracking limit of `ControlLoop::step` (`set_tracking_limit`), m.
     pub length_limit: f32,
     /// PID gains.
     pub gains: Gains,
