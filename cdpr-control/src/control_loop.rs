@@ -17,7 +17,7 @@
 //! 3. the caller reports the step's measured cost with
 //!    [`ControlLoop::record_cost`] (it appears in the next telemetry).
 
-use cdpr_protocol::{Counters, HostMessage, Reason, Rejection, State, Telemetry};
+use cdpr_protocol::{Counters, DriveFault, HostMessage, Reason, Rejection, State, Telemetry};
 use tension_core::{Error, Method};
 
 use crate::controller::{Controller, Cycle, PhaseTicks, Saturation, Wrench};
@@ -152,6 +152,8 @@ pub struct StepReport {
     pub offsets: [f32; CABLES],
     /// The drive that could not be read this cycle.
     pub unreadable_drive: Option<u8>,
+    /// The first drive fault since the last granted `ClearFault`.
+    pub drive_fault: Option<DriveFault>,
 }
 
 /// The per-cycle logic with its state.
@@ -173,6 +175,8 @@ pub struct ControlLoop {
     homing: Option<Homing>,
     pending_home: Option<Pose6>,
     readings: [WinchReading; CABLES],
+    /// The first drive fault since the last granted `ClearFault`.
+    drive_fault: Option<DriveFault>,
     estimator: Estimator,
     scheme: Scheme,
     task_pid: TaskPid,
@@ -228,6 +232,7 @@ impl ControlLoop {
             homing: None,
             pending_home: None,
             readings: [WinchReading::default(); CABLES],
+            drive_fault: None,
             estimator: Estimator::new(EstimatorSettings::DEFAULT),
             scheme: Scheme::FeedForward,
             task_pid: TaskPid::new(gains, DEFAULT_FEEDBACK_LIMITS),
@@ -568,11 +573,17 @@ impl ControlLoop {
         let read = drives.read(&mut self.readings);
         let mut unreadable_drive = None;
         let mut encoder_fault = false;
+        let mut faulted = false;
         if let Err(e) = &read {
             unreadable_drive = Some(drives.failed_drive(e).map_or(u8::MAX, |i| i.min(254) as u8));
             self.homing = None;
             self.estimator.forget();
             encoder_fault = true;
+            // A drive's own fault: Fault `drive` in any state.
+            if let Some(f) = drives.drive_fault(e) {
+                self.drive_fault.get_or_insert(f);
+                faulted |= self.supervisor.fault(now, Reason::Drive);
+            }
         }
         if let Some(pose) = self.pending_home.take() {
             self.carry_out_home(&pose, read.is_ok());
@@ -589,7 +600,6 @@ impl ControlLoop {
         // (its unloaded winch reels in), a winch that cannot deliver its
         // torque (its cable pays out as the platform sags), the platform
         // coasting past a frozen setpoint. In Disabled it refuses Enable.
-        let mut faulted = false;
         if matches!(state_before, State::Enabled | State::Holding)
             && self.off_track(measured.as_ref().map(|(l, _)| l))
             && self.supervisor.fault(now, Reason::Tracking)
@@ -768,8 +778,18 @@ impl ControlLoop {
             self.link.restart_sequence();
         }
 
+        if state_before == State::Fault && decisions.disabled {
+            // ClearFault granted.
+            drives.clear_faults();
+            self.drive_fault = None;
+        }
         let written = drives.set_brakes(output.brakes).and_then(|()| drives.apply(&output.torques));
-        if written.is_err() && self.supervisor.fault(now, Reason::Output) {
+        let written_fault = written.as_ref().err().and_then(|e| drives.drive_fault(e));
+        if let Some(f) = written_fault {
+            self.drive_fault.get_or_insert(f);
+        }
+        let output_reason = if written_fault.is_some() { Reason::Drive } else { Reason::Output };
+        if written.is_err() && self.supervisor.fault(now, output_reason) {
             faulted = true;
             output.torques = *self.supervisor.torques();
             output.brakes = true;
@@ -828,6 +848,7 @@ impl ControlLoop {
                     },
                     buffer_fill: self.buffer.fill(now).min(255) as u8,
                     buffer_lead_ms: self.buffer.lead_ms(now).min(u32::from(u16::MAX)) as u16,
+                    drive_fault: self.drive_fault,
                 }
             });
         self.cycle = self.cycle.wrapping_add(1);
@@ -843,6 +864,7 @@ impl ControlLoop {
             feedback,
             offsets,
             unreadable_drive,
+            drive_fault: self.drive_fault,
         }
     }
 

@@ -9,6 +9,7 @@
 use embedded_hal::digital::OutputPin;
 use embedded_hal::pwm::SetDutyCycle;
 
+use crate::protocol::DriveFault;
 use crate::CABLES;
 
 /// One winch's motor encoder: its count (wrapping 32-bit) and speed.
@@ -45,6 +46,22 @@ pub trait WinchDrives {
         let _ = error;
         None
     }
+
+    /// The drive fault an error of [`WinchDrives::read`] or
+    /// [`WinchDrives::apply`] reports, if it is one (a drive that faulted or
+    /// dropped off its bus, rather than a reading that failed once): the
+    /// control loop then goes to Fault `drive` from any state and reports
+    /// it in telemetry (`drive_fault`). `None` by default.
+    fn drive_fault(&self, error: &Self::Error) -> Option<DriveFault> {
+        let _ = error;
+        None
+    }
+
+    /// A `ClearFault` was granted (the board is Disabled again, brakes
+    /// engaged): the drives may clear what they latched (a CiA 402 fault
+    /// reset, a restart of a drive that dropped off its bus). A fault that
+    /// is still there reports itself again. Nothing by default.
+    fn clear_faults(&mut self) {}
 }
 
 /// Why [`PwmDrives`] failed.

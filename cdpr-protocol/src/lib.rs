@@ -25,7 +25,7 @@
 //! receiver's business: see `cdpr-control`'s link layer.
 //!
 //! Tags and fields are wire-stable: variants and fields are only appended.
-//! The telemetry sample is the largest message: at most 190 bytes of
+//! The telemetry sample is the largest message: at most 198 bytes of
 //! postcard (every counter at `u32::MAX`; `tests/frames.rs` pins it), so
 //! at the firmware's 460 800 baud (46 bytes per ms) one sample every 5
 //! control cycles or more is sustainable (the default 10 uses 43 % of the
@@ -42,9 +42,9 @@ pub use messages::*;
 use serde::{de::DeserializeOwned, Serialize};
 
 /// Largest postcard payload of any message, bytes (the telemetry message
-/// is the largest: 190 bytes at most, with every counter at its largest; see
+/// is the largest: 198 bytes at most, with every counter at its largest; see
 /// `tests/frames.rs`).
-pub const MAX_PAYLOAD: usize = 192;
+pub const MAX_PAYLOAD: usize = 200;
 
 /// Length of the CRC appended to the payload, bytes.
 pub const CRC_LEN: usize = 4;

@@ -145,6 +145,75 @@ pub enum Reason {
     /// A winch drive's encoder could not be read (tag 9): a fault while
     /// Enabled or Holding; `Telemetry::unreadable_drive` names the drive.
     Encoder,
+    /// A winch drive reported a fault or stopped answering (tag 10): an
+    /// EMCY frame, a statusword showing fault or a lost "operation
+    /// enabled", a missing process data object, a heartbeat timeout, a
+    /// bus-off. A fault in any state; `Telemetry::drive_fault` names the
+    /// drive, the cause and its code.
+    Drive,
+}
+
+/// What a winch drive's fault was ([`DriveFault::cause`]); the meaning of
+/// [`DriveFault::code`] depends on it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DriveFaultCause {
+    /// The drive sent an emergency (EMCY) frame (tag 0); `code` is its
+    /// CiA 301 emergency error code (e.g. 0x2310 over-current, 0x4310
+    /// over-temperature, 0x7305 encoder).
+    Emergency,
+    /// The drive's statusword shows "fault" or "fault reaction active" (tag
+    /// 1); `code` is the statusword (0x6041).
+    StateFault,
+    /// The drive left "operation enabled" by itself, or did not reach
+    /// the state asked for within the transition timeout (tag 2); `code`
+    /// is the statusword.
+    StateLost,
+    /// No position (TPDO) from the drive for the stated number of SYNC
+    /// cycles in a row (tag 3); `code` is the number of cycles.
+    MissingPdo,
+    /// No heartbeat within the consumer time, or a heartbeat in another
+    /// NMT state than operational (a reset or stopped drive) (tag 4);
+    /// `code` is the NMT state byte, or 0xFFFF for the timeout.
+    Heartbeat,
+    /// The drive's bus went bus-off (tag 5); `code` is the bus (1 or 2).
+    BusOff,
+    /// The drive did not answer at start-up within the stated time (tag
+    /// 6): no boot-up, or an SDO without response; `code` is the object
+    /// index being written (0 for the boot-up).
+    NoAnswer,
+    /// The drive refused a configuration SDO (tag 7), or its rated torque
+    /// (0x6076) differs from the robot file's; `code` is the SDO abort
+    /// code (CiA 301), or 0x6076 for the rated torque.
+    Configuration,
+}
+
+impl DriveFaultCause {
+    /// The cause's name in logs and tables (lower case, words joined by `-`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            DriveFaultCause::Emergency => "emergency",
+            DriveFaultCause::StateFault => "state-fault",
+            DriveFaultCause::StateLost => "state-lost",
+            DriveFaultCause::MissingPdo => "missing-pdo",
+            DriveFaultCause::Heartbeat => "heartbeat",
+            DriveFaultCause::BusOff => "bus-off",
+            DriveFaultCause::NoAnswer => "no-answer",
+            DriveFaultCause::Configuration => "configuration",
+        }
+    }
+}
+
+/// A winch drive's fault, as telemetry reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DriveFault {
+    /// The drive: its cable's index (0-based, file order).
+    pub drive: u8,
+    /// What happened.
+    pub cause: DriveFaultCause,
+    /// The cause's code (see [`DriveFaultCause`]).
+    pub code: u32,
 }
 
 impl State {
@@ -173,6 +242,7 @@ impl Reason {
             Reason::Tracking => "tracking",
             Reason::Estimator => "estimator",
             Reason::Encoder => "encoder",
+            Reason::Drive => "drive",
         }
     }
 }
@@ -355,6 +425,9 @@ pub struct Telemetry {
     /// How far the buffer's last point lies ahead of its play time, ms (0
     /// when it ran dry or holds no stream).
     pub buffer_lead_ms: u16,
+    /// The first winch-drive fault since the last granted `ClearFault`
+    /// (the one that put the board in Fault `drive`), if any.
+    pub drive_fault: Option<DriveFault>,
 }
 
 /// Bytes of the robot's name in [`Identity`]; longer names are truncated

@@ -4,9 +4,9 @@
 //! rejected without a panic.
 
 use cdpr_protocol::{
-    crc32, decode, encode, Counters, DeviceMessage, FrameDecoder, FrameError, HostMessage, Identity, Reason,
-    Rejection, Setpoint, State, Telemetry, TrajectoryPoint, CABLES, IDENTITY_NAME_LEN, MAX_FRAME,
-    MAX_PAYLOAD,
+    crc32, decode, encode, Counters, DeviceMessage, DriveFault, DriveFaultCause, FrameDecoder, FrameError,
+    HostMessage, Identity, Reason, Rejection, Setpoint, State, Telemetry, TrajectoryPoint, CABLES,
+    IDENTITY_NAME_LEN, MAX_FRAME, MAX_PAYLOAD,
 };
 use proptest::prelude::*;
 
@@ -88,6 +88,11 @@ fn largest_message_fits() {
         feedback_scale: u8::MAX,
         buffer_fill: u8::MAX,
         buffer_lead_ms: u16::MAX,
+        drive_fault: Some(DriveFault {
+            drive: u8::MAX,
+            cause: DriveFaultCause::Configuration,
+            code: u32::MAX,
+        }),
     };
     let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
     assert!(frame.len() <= MAX_FRAME, "{} bytes", frame.len());
@@ -95,13 +100,14 @@ fn largest_message_fits() {
     // frame less the COBS code byte, the CRC and the delimiter.
     let mut buf = [0u8; MAX_PAYLOAD];
     let payload = postcard::to_slice(&DeviceMessage::Telemetry(telemetry), &mut buf).unwrap();
-    assert_eq!(payload.len(), 190);
+    assert_eq!(payload.len(), 198);
     assert!(payload.len() <= MAX_PAYLOAD);
     let decoded = feed::<DeviceMessage>(&frame);
     let Some(Ok(DeviceMessage::Telemetry(back))) = decoded.first().cloned() else { panic!("{decoded:?}") };
     assert!(back.residual.is_nan());
     assert_eq!(back.unreadable_drive, Some(u8::MAX));
-    let telemetry = Telemetry { residual: 0.0, unreadable_drive: None, ..telemetry };
+    assert_eq!(back.drive_fault, telemetry.drive_fault);
+    let telemetry = Telemetry { residual: 0.0, unreadable_drive: None, drive_fault: None, ..telemetry };
     let frame = frame_of(&DeviceMessage::Telemetry(telemetry));
     assert_eq!(feed::<DeviceMessage>(&frame), vec![Ok(DeviceMessage::Telemetry(telemetry))]);
 }

@@ -153,6 +153,12 @@ struct WinchToml {
     counts_per_revolution: Option<Spanned<i64>>,
     #[serde(default)]
     encoder_sign: Option<Spanned<EncoderSignToml>>,
+    #[serde(default)]
+    rated_torque: Option<Spanned<f64>>,
+    #[serde(default)]
+    node_id: Option<Spanned<Vec<i64>>>,
+    #[serde(default)]
+    can_bus: Option<Spanned<Vec<i64>>>,
 }
 
 /// `encoder_sign`: one sign for every cable, or one per cable.
@@ -205,6 +211,33 @@ impl EncoderSpec {
     pub const DEFAULT_COUNTS_PER_REVOLUTION: u32 = 4096;
 }
 
+/// The winch drives on the board's CAN buses (CANopen CiA 402 servo
+/// drives, `[winch]`'s `rated_torque`, `node_id` and `can_bus`; see
+/// `docs/conventions.md`, "Robot description files").
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriveSpec {
+    /// The motors' rated torque, N m (the drives' object 0x6076, in which
+    /// the target torque 0x6071 is written in thousandths); `None` when
+    /// the file does not say (the CAN drives then refuse to start).
+    pub rated_torque: Option<f64>,
+    /// Cable `i`'s drive node id, 1..=127, unique on its bus.
+    pub node_ids: Vec<u8>,
+    /// Cable `i`'s bus: 1 (CAN1) or 2 (CAN2).
+    pub buses: Vec<u8>,
+    /// Whether the file set any of the three keys (only then do they enter
+    /// [`RobotFile::canonical_bytes`]).
+    pub explicit: bool,
+}
+
+impl DriveSpec {
+    /// The default split of `cables` drives: the first half (rounded up) on
+    /// CAN1 with node ids 1, 2, ..., the rest on CAN2 with node ids 1, 2, ...
+    pub fn default_split(cables: usize) -> (Vec<u8>, Vec<u8>) {
+        let first = cables.div_ceil(2);
+        (0..cables).map(|i| if i < first { ((i + 1) as u8, 1) } else { ((i - first + 1) as u8, 2) }).unzip()
+    }
+}
+
 /// One cable of a robot file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CableSpec {
@@ -240,6 +273,9 @@ pub struct RobotFile {
     /// The winches' motor encoders (`[winch]`'s `counts_per_revolution`
     /// and `encoder_sign`; the defaults when absent).
     pub encoder: EncoderSpec,
+    /// The winch drives' bus addresses and rated torque (`[winch]`'s
+    /// `rated_torque`, `node_id`, `can_bus`; defaults when absent).
+    pub drives: DriveSpec,
     /// The cables in file order.
     pub cables: Vec<CableSpec>,
 }
@@ -284,6 +320,7 @@ impl RobotFile {
                 [w.drum_radius, w.gear_ratio, w.efficiency, w.torque_max]
             }),
             encoder: encoder_spec(text, raw.winch.as_ref().map(Spanned::get_ref), raw.cable.len())?,
+            drives: drive_spec(text, raw.winch.as_ref().map(Spanned::get_ref), raw.cable.len())?,
             cables: raw
                 .cable
                 .iter()
@@ -488,6 +525,14 @@ impl RobotFile {
             out.push(self.encoder.signs.get(i).copied().unwrap_or(1) as u8);
             c.anchor.iter().chain(&c.attach).chain([&c.t_min, &c.t_max]).for_each(|&x| num(&mut out, x));
         }
+        // The drives' keys only when the file sets one (files without
+        // them keep the identity they had before the keys existed).
+        if self.drives.explicit {
+            text(&mut out, "drives v1");
+            num(&mut out, self.drives.rated_torque.unwrap_or(f64::NAN));
+            out.extend(&self.drives.node_ids);
+            out.extend(&self.drives.buses);
+        }
         out
     }
 
@@ -540,6 +585,87 @@ fn encoder_spec(text: &str, winch: Option<&WinchToml>, cables: usize) -> Result<
         },
     };
     Ok(EncoderSpec { counts_per_revolution, signs })
+}
+
+/// `[winch]`'s drive keys, checked: `rated_torque` positive and finite,
+/// with `torque_max` at most 32.767 times it (the target torque 0x6071 is
+/// an `i16` in thousandths of it); `node_id` one id 1..=127 per cable and
+/// `can_bus` one of 1 or 2 per cable, no two drives on one bus with the
+/// same id.
+fn drive_spec(text: &str, winch: Option<&WinchToml>, cables: usize) -> Result<DriveSpec, RobotFileError> {
+    let format = |what: String, span: Range<usize>| {
+        RobotFileError::new(RobotFileErrorKind::Format(what), Some(Location::of_offset(text, span.start)))
+    };
+    let (default_ids, default_buses) = DriveSpec::default_split(cables);
+    let rated_torque = match winch.and_then(|w| w.rated_torque.as_ref()) {
+        None => None,
+        Some(r) => {
+            let value = *r.get_ref();
+            let torque_max = winch.map_or(f64::NAN, |w| w.torque_max);
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format(
+                    format!("[winch] rated_torque = {value} must be positive and finite"),
+                    r.span(),
+                ));
+            }
+            if !(torque_max / value * 1000.0 <= f64::from(i16::MAX)) {
+                return Err(format(
+                    format!("[winch] rated_torque = {value}: torque_max = {torque_max} is over 32.767 times it (the drives' target torque is an i16 in thousandths of the rated torque)"),
+                    r.span(),
+                ));
+            }
+            Some(value)
+        }
+    };
+    let list = |key: &str,
+                spanned: Option<&Spanned<Vec<i64>>>,
+                range: std::ops::RangeInclusive<i64>,
+                default: Vec<u8>| {
+        match spanned {
+            None => Ok(default),
+            Some(s) if s.get_ref().len() != cables => Err(format(
+                format!("[winch] {key} has {} entries, the file has {cables} cables", s.get_ref().len()),
+                s.span(),
+            )),
+            Some(s) => s
+                .get_ref()
+                .iter()
+                .map(|&v| {
+                    if range.contains(&v) {
+                        Ok(v as u8)
+                    } else {
+                        Err(format(
+                            format!("[winch] {key}: {v} is not in {}..={}", range.start(), range.end()),
+                            s.span(),
+                        ))
+                    }
+                })
+                .collect::<Result<Vec<u8>, _>>(),
+        }
+    };
+    let node_ids = list("node_id", winch.and_then(|w| w.node_id.as_ref()), 1..=127, default_ids)?;
+    let buses = list("can_bus", winch.and_then(|w| w.can_bus.as_ref()), 1..=2, default_buses)?;
+    for i in 0..cables {
+        for j in 0..i {
+            if node_ids[i] == node_ids[j] && buses[i] == buses[j] {
+                let span =
+                    winch.and_then(|w| w.node_id.as_ref().or(w.can_bus.as_ref())).map_or(0..0, Spanned::span);
+                return Err(format(
+                    format!(
+                        "[winch] cables {} and {} have the same node id {} on CAN{}",
+                        j + 1,
+                        i + 1,
+                        node_ids[i],
+                        buses[i]
+                    ),
+                    span,
+                ));
+            }
+        }
+    }
+    let explicit =
+        winch.is_some_and(|w| w.rated_torque.is_some() || w.node_id.is_some() || w.can_bus.is_some());
+    Ok(DriveSpec { rated_torque, node_ids, buses, explicit })
 }
 
 /// `tension-core`'s checks of a platform and of one cable's geometry: a
@@ -629,6 +755,52 @@ attach = [0.0, 0.0, 0.0]
         let none = base.split("[winch]").next().unwrap().to_string()
             + &"[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n".repeat(3);
         assert_eq!(RobotFile::parse(&none).unwrap().encoder.signs, vec![1, 1, 1]);
+    }
+
+    /// `[winch]`'s drive keys: the default split over the two buses,
+    /// explicit ids and buses, and each error with its line.
+    #[test]
+    fn drive_keys() {
+        let base = "name = \"t\"\nkind = \"planar2\"\n[limits]\nt_min = 1.0\nt_max = 10.0\n[platform]\nmass = 2.0\ngravity = [0.0, -9.81, 0.0]\n[winch]\ndrum_radius = 0.04\ngear_ratio = 8.0\nefficiency = 0.9\ntorque_max = 2.5\n[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n[[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n[[cable]]\nanchor = [1.0, 1.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n";
+        let default = RobotFile::parse(base).unwrap().drives;
+        assert_eq!(
+            default,
+            DriveSpec { rated_torque: None, node_ids: vec![1, 2, 1], buses: vec![1, 1, 2], explicit: false }
+        );
+        assert_eq!(DriveSpec::default_split(8), (vec![1, 2, 3, 4, 1, 2, 3, 4], vec![1, 1, 1, 1, 2, 2, 2, 2]));
+        let with = |keys: &str| {
+            RobotFile::parse(&base.replace("torque_max = 2.5\n", &format!("torque_max = 2.5\n{keys}\n")))
+        };
+        let d = with("rated_torque = 0.64\nnode_id = [5, 6, 5]\ncan_bus = [1, 1, 2]").unwrap().drives;
+        assert_eq!(
+            d,
+            DriveSpec {
+                rated_torque: Some(0.64),
+                node_ids: vec![5, 6, 5],
+                buses: vec![1, 1, 2],
+                explicit: true
+            }
+        );
+        for bad in [
+            "rated_torque = 0.0",
+            "rated_torque = -1.0",
+            "rated_torque = 0.05",
+            "node_id = [1, 2]",
+            "node_id = [0, 1, 2]",
+            "node_id = [1, 128, 2]",
+            "can_bus = [1, 3, 2]",
+            "node_id = [1, 1, 2]",
+        ] {
+            let err = with(bad).unwrap_err();
+            assert_eq!(err.at.map(|at| at.line), Some(14), "{bad}: {err}");
+        }
+        // The same id on different buses is two drives.
+        assert!(with("node_id = [1, 2, 2]\ncan_bus = [1, 1, 2]").is_ok());
+        // The keys enter the identity only when set.
+        let plain = RobotFile::parse(base).unwrap();
+        assert_eq!(with("").unwrap().identity(), plain.identity());
+        assert_ne!(with("rated_torque = 0.64").unwrap().identity(), plain.identity());
+        assert_ne!(with("node_id = [1, 2, 3]\ncan_bus = [1, 1, 1]").unwrap().identity(), plain.identity());
     }
 
     /// FNV-1a 64's published test vectors.

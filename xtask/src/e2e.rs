@@ -71,8 +71,8 @@ use tension_core::{Method, Robot, TensionSolver};
 pub const TENSION_TOLERANCE: f64 = 1e-4;
 
 /// Telemetry every this many cycles: QEMU spends real time on every byte
-/// the USART writes, and one sample per cycle (190 bytes at most since the
-/// closed loop's fields) slows its virtual clock below real time: every
+/// the USART writes, and one sample per cycle (198 bytes at most since the
+/// drive fault's field) slows its virtual clock below real time: every
 /// 10th cycle is 19 bytes a cycle, less than the 22 of the 90-byte
 /// samples every 4th cycle before.
 const TELEMETRY_PERIOD: u16 = 10;
