@@ -1,0 +1,488 @@
+//! One winch drive as the board sees it: its start-up (boot-up, the SDO
+//! configuration of [`crate::config::configuration`], NMT start), its CiA
+//! 402 state driven towards what the board wants, its cyclic data
+//! (position from TPDO1, statusword from TPDO2) and the faults it can
+//! show. Time is counted in control cycles; every wait has its timeout
+//! ([`Timing`]).
+
+use canopen_rs::emcy::EmergencyMessage;
+use canopen_rs::sdo::{SdoClient, SdoEvent};
+use canopen_rs::{Address, DataType, NodeId, Value};
+use cdpr_control::protocol::DriveFaultCause;
+
+use crate::cia402::{controlword, step_towards, DriveState, Target};
+use crate::config::{configuration, ConfigStep, DriveConfig, Timing, CONFIG_STEPS};
+use crate::frame::{RawFrame, EMCY, HEARTBEAT, NMT, RPDO1, RPDO2, SDO_REQUEST, SDO_RESPONSE, TPDO1, TPDO2};
+
+/// Where a drive's start-up is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Waiting for its boot-up (or a pre-operational heartbeat) after the
+    /// board's NMT reset.
+    WaitBoot,
+    /// Writing its configuration by SDO (the step's index).
+    Configure(u8),
+    /// NMT start sent; waiting for "operational".
+    Start,
+    /// Operational: PDOs flow.
+    Operational,
+}
+
+/// Frames to send, in order (a bounded list: a node sends at most two per
+/// call, a bus at most [`Outbox::CAPACITY`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Outbox {
+    frames: [RawFrame; Outbox::CAPACITY],
+    len: usize,
+    /// Frames that did not fit (an error of the caller's bookkeeping; the
+    /// bus reports it as a transmit failure).
+    pub overflowed: u32,
+}
+
+impl Outbox {
+    /// Frames an outbox holds: a bus's 4 drives' RPDO1 and RPDO2 and the
+    /// SYNC, or its start-up frames, with room to spare.
+    pub const CAPACITY: usize = 24;
+
+    /// Empty.
+    pub const fn new() -> Self {
+        Self { frames: [RawFrame { id: 0, len: 0, data: [0; 8] }; Self::CAPACITY], len: 0, overflowed: 0 }
+    }
+
+    /// Appends `frame` (counted in `overflowed` if full).
+    pub fn push(&mut self, frame: RawFrame) {
+        if self.len < Self::CAPACITY {
+            self.frames[self.len] = frame;
+            self.len += 1;
+        } else {
+            self.overflowed = self.overflowed.wrapping_add(1);
+        }
+    }
+
+    /// The frames, in order.
+    pub fn frames(&self) -> &[RawFrame] {
+        &self.frames[..self.len]
+    }
+
+    /// Empties it.
+    pub fn clear(&mut self) {
+        self.len = 0;
+        self.overflowed = 0;
+    }
+}
+
+impl Default for Outbox {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// What a received frame was to its node.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Received {
+    /// Used.
+    Used,
+    /// Wrong length, or unexpected in this stage (an SDO response nobody
+    /// asked for): counted and dropped.
+    Garbage,
+}
+
+/// One drive.
+#[derive(Debug)]
+pub struct Node {
+    config: DriveConfig,
+    timing: Timing,
+    steps: [ConfigStep; CONFIG_STEPS],
+    stage: Stage,
+    /// The cycle the stage, or the pending SDO, started.
+    since: u32,
+    sdo: Option<SdoClient>,
+    sdo_pending: bool,
+    sdo_retried: bool,
+    fault: Option<(DriveFaultCause, u32)>,
+    statusword: Option<u16>,
+    position: Option<i32>,
+    /// The position of the last fresh TPDO1 and the cycles since it.
+    speed_from: Option<(i32, u32)>,
+    speed: i32,
+    pdo_fresh: bool,
+    sync_sent: bool,
+    missed: u32,
+    last_heartbeat: u32,
+    target: Target,
+    controlword: u16,
+    transition: Option<(DriveState, u32)>,
+    reached_operate: bool,
+    fault_reset: bool,
+    boots: u8,
+}
+
+/// Boot-ups a drive may send while being configured before it counts as
+/// resetting by itself (a heartbeat fault).
+const MAX_BOOTS: u8 = 3;
+
+impl Node {
+    /// A drive waiting for its boot-up since cycle `now`.
+    pub fn new(config: DriveConfig, timing: Timing, now: u32) -> Self {
+        Self {
+            steps: configuration(&config, &timing),
+            sdo: NodeId::new(config.node).ok().map(SdoClient::new),
+            config,
+            timing,
+            stage: Stage::WaitBoot,
+            since: now,
+            sdo_pending: false,
+            sdo_retried: false,
+            fault: None,
+            statusword: None,
+            position: None,
+            speed_from: None,
+            speed: 0,
+            pdo_fresh: false,
+            sync_sent: false,
+            missed: 0,
+            last_heartbeat: now,
+            target: Target::Hold,
+            controlword: controlword::DISABLE_VOLTAGE,
+            transition: None,
+            reached_operate: false,
+            fault_reset: false,
+            boots: 0,
+        }
+    }
+
+    /// The drive's configuration.
+    pub fn config(&self) -> &DriveConfig {
+        &self.config
+    }
+
+    /// The layer's timing.
+    pub fn timing(&self) -> &Timing {
+        &self.timing
+    }
+
+    /// Its start-up stage.
+    pub fn stage(&self) -> Stage {
+        self.stage
+    }
+
+    /// Its latched fault: the cause and its code.
+    pub fn fault(&self) -> Option<(DriveFaultCause, u32)> {
+        self.fault
+    }
+
+    /// Its CiA 402 state, once a statusword came.
+    pub fn state(&self) -> Option<DriveState> {
+        self.statusword.map(DriveState::of_statusword)
+    }
+
+    /// The last statusword.
+    pub fn statusword(&self) -> Option<u16> {
+        self.statusword
+    }
+
+    /// Whether its reading is good: operational, no fault, a position and
+    /// a statusword in "switched on" or "operation enabled".
+    pub fn ready(&self) -> bool {
+        self.stage == Stage::Operational
+            && self.fault.is_none()
+            && self.position.is_some()
+            && matches!(self.state(), Some(DriveState::SwitchedOn | DriveState::OperationEnabled))
+    }
+
+    /// Position actual (counts) and the speed from the positions (counts
+    /// per second), once a position came.
+    pub fn reading(&self) -> Option<(i32, i32)> {
+        self.position.map(|p| (p, self.speed))
+    }
+
+    fn latch(&mut self, cause: DriveFaultCause, code: u32) {
+        if self.fault.is_none() {
+            self.fault = Some((cause, code));
+        }
+    }
+
+    /// A frame whose COB-ID names this drive (`function` is the COB-ID's
+    /// function code, `id & 0x780`), received in cycle `now`.
+    pub fn on_frame(&mut self, function: u16, frame: &RawFrame, now: u32) -> Received {
+        let data = frame.bytes();
+        match (function, data.len()) {
+            (EMCY, 8) => {
+                if let Ok(m) = EmergencyMessage::decode(data) {
+                    if !m.is_error_reset() {
+                        self.latch(DriveFaultCause::Emergency, u32::from(m.error_code));
+                    }
+                }
+                Received::Used
+            }
+            (TPDO1, 4) => {
+                self.position = Some(i32::from_le_bytes([data[0], data[1], data[2], data[3]]));
+                self.pdo_fresh = true;
+                if self.stage == Stage::Start {
+                    self.enter_operational(now);
+                }
+                Received::Used
+            }
+            (TPDO2, 2) => {
+                self.statusword = Some(u16::from_le_bytes([data[0], data[1]]));
+                Received::Used
+            }
+            (SDO_RESPONSE, 8) if self.sdo_pending => {
+                self.on_sdo_response(frame, now);
+                Received::Used
+            }
+            (HEARTBEAT, 1) => {
+                self.on_heartbeat(data[0] & 0x7F, now);
+                Received::Used
+            }
+            _ => Received::Garbage,
+        }
+    }
+
+    fn on_heartbeat(&mut self, state: u8, now: u32) {
+        self.last_heartbeat = now;
+        match (self.stage, state) {
+            // Boot-up, or already pre-operational (booted before the board).
+            (Stage::WaitBoot, 0x00 | 0x7F) => self.enter(Stage::Configure(0), now),
+            (Stage::WaitBoot, _) => {}
+            (Stage::Start, 0x05) => self.enter_operational(now),
+            (Stage::Configure(_) | Stage::Start, 0x7F) => {}
+            // A boot-up before it runs: the drive reset (e.g. the board's
+            // NMT reset crossed its power-on boot-up); its communication
+            // objects are the defaults again, so configure from the start,
+            // a few times at most.
+            (Stage::Configure(_) | Stage::Start, 0x00) if self.boots < MAX_BOOTS => {
+                self.boots += 1;
+                self.sdo_pending = false;
+                self.sdo_retried = false;
+                self.enter(Stage::Configure(0), now);
+            }
+            (Stage::Operational, 0x05) => {}
+            // Boot-up (a reset drive) or another state mid-configuration
+            // or operation: the drive is not what was configured.
+            (_, s) => self.latch(DriveFaultCause::Heartbeat, u32::from(s)),
+        }
+    }
+
+    fn on_sdo_response(&mut self, frame: &RawFrame, now: u32) {
+        let Stage::Configure(step) = self.stage else { return };
+        let Some(client) = &mut self.sdo else { return };
+        self.sdo_pending = false;
+        match client.on_response(&frame.data) {
+            SdoEvent::Complete(value) => {
+                if self.steps.get(usize::from(step)) == Some(&ConfigStep::CheckRatedTorque) {
+                    let expected = self.config.rated_torque * 1000.0;
+                    let matches = match value {
+                        Some(Value::Unsigned32(mnm)) => {
+                            libm::fabsf(mnm as f32 - expected) <= 0.005 * expected
+                        }
+                        _ => false,
+                    };
+                    if !matches {
+                        self.latch(DriveFaultCause::Configuration, 0x6076);
+                        return;
+                    }
+                }
+                self.sdo_retried = false;
+                self.enter(Stage::Configure(step.saturating_add(1)), now);
+            }
+            SdoEvent::Aborted(code) => self.latch(DriveFaultCause::Configuration, code),
+            // Only expedited transfers are used: a segmented answer is not
+            // what was asked for.
+            SdoEvent::Send(_) => self.latch(DriveFaultCause::Configuration, 0x0800_0000),
+        }
+    }
+
+    fn enter(&mut self, stage: Stage, now: u32) {
+        self.stage = stage;
+        self.since = now;
+    }
+
+    fn enter_operational(&mut self, now: u32) {
+        self.enter(Stage::Operational, now);
+        self.last_heartbeat = now;
+        self.missed = 0;
+    }
+
+    /// The cycle's checks and start-up frames, after the cycle's frames
+    /// were received (`now` is the cycle).
+    pub fn poll(&mut self, now: u32, out: &mut Outbox) {
+        // The positions of the SYNC sent last cycle.
+        if self.stage == Stage::Operational && self.sync_sent {
+            self.sync_sent = false;
+            if self.pdo_fresh {
+                if let (Some(p), Some((from, cycles))) = (self.position, self.speed_from) {
+                    let counts = i64::from(p.wrapping_sub(from));
+                    let s = counts * i64::from(self.timing.cycle_hz) / i64::from(cycles.max(1));
+                    self.speed = s.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+                }
+                self.speed_from = self.position.map(|p| (p, 1));
+                self.missed = 0;
+            } else {
+                self.missed += 1;
+                if let Some((_, c)) = &mut self.speed_from {
+                    *c = c.saturating_add(1);
+                }
+                if self.missed >= self.timing.missing_pdo_cycles {
+                    self.latch(DriveFaultCause::MissingPdo, self.missed);
+                }
+            }
+        }
+        self.pdo_fresh = false;
+        if self.fault.is_some() {
+            return;
+        }
+        let elapsed = now.wrapping_sub(self.since);
+        match self.stage {
+            Stage::WaitBoot if elapsed > self.timing.boot_cycles => self.latch(DriveFaultCause::NoAnswer, 0),
+            Stage::WaitBoot => {}
+            Stage::Configure(step) => match self.steps.get(usize::from(step)).copied() {
+                None => {
+                    out.push(RawFrame::new(NMT, &[0x01, self.config.node]));
+                    self.enter(Stage::Start, now);
+                }
+                Some(s) if !self.sdo_pending => self.send_sdo(s, now, out),
+                Some(s) if elapsed > self.timing.sdo_cycles && !self.sdo_retried => {
+                    self.sdo_retried = true;
+                    self.send_sdo(s, now, out);
+                }
+                Some(s) if elapsed > self.timing.sdo_cycles => {
+                    let index = match s {
+                        ConfigStep::Write { index, .. } => index,
+                        ConfigStep::CheckRatedTorque => 0x6076,
+                    };
+                    self.latch(DriveFaultCause::NoAnswer, u32::from(index));
+                }
+                Some(_) => {}
+            },
+            Stage::Start if elapsed > self.timing.start_cycles => self.latch(DriveFaultCause::NoAnswer, 1),
+            Stage::Start => {}
+            Stage::Operational => self.check_operation(now),
+        }
+    }
+
+    fn send_sdo(&mut self, step: ConfigStep, now: u32, out: &mut Outbox) {
+        let Some(client) = &mut self.sdo else { return };
+        let payload = match step {
+            ConfigStep::Write { index, sub, size, value } => {
+                let v = match size {
+                    1 => Value::Unsigned8(value as u8),
+                    2 => Value::Unsigned16(value as u16),
+                    _ => Value::Unsigned32(value),
+                };
+                client.write(Address::new(index, sub), v)
+            }
+            ConfigStep::CheckRatedTorque => client.read(Address::new(0x6076, 0), DataType::Unsigned32),
+        };
+        out.push(RawFrame::new(SDO_REQUEST + u16::from(self.config.node), &payload));
+        self.sdo_pending = true;
+        self.since = now;
+    }
+
+    fn check_operation(&mut self, now: u32) {
+        if now.wrapping_sub(self.last_heartbeat) > self.timing.heartbeat_timeout_cycles {
+            self.latch(DriveFaultCause::Heartbeat, 0xFFFF);
+            return;
+        }
+        let (Some(sw), Some(state)) = (self.statusword, self.state()) else {
+            // No statusword yet: the event timer sends one within its period.
+            if now.wrapping_sub(self.since) > self.timing.transition_cycles {
+                self.latch(DriveFaultCause::StateLost, 0xFFFF_FFFF);
+            }
+            return;
+        };
+        if state.is_fault()
+            && !self.fault_reset
+            && !matches!(self.transition, Some((DriveState::SwitchOnDisabled, _)))
+        {
+            self.latch(DriveFaultCause::StateFault, u32::from(sw));
+            return;
+        }
+        if let Some((expected, since)) = self.transition {
+            if state == expected {
+                self.transition = None;
+                if expected == DriveState::OperationEnabled {
+                    self.reached_operate = true;
+                }
+            } else if now.wrapping_sub(since) > self.timing.transition_cycles {
+                self.latch(DriveFaultCause::StateLost, u32::from(sw));
+            }
+        } else if self.target == Target::Operate
+            && self.reached_operate
+            && state != DriveState::OperationEnabled
+        {
+            self.latch(DriveFaultCause::StateLost, u32::from(sw));
+        }
+    }
+
+    /// Where the board wants the drive ([`Target::Hold`]: brake engaged, no
+    /// torque; [`Target::Operate`]: torque control).
+    pub fn set_target(&mut self, target: Target) {
+        if target == Target::Hold {
+            self.reached_operate = false;
+        }
+        self.target = target;
+    }
+
+    /// The cycle's process data (`torque` N m) and the controlword when a
+    /// transition is due, into `out`; whether the drive takes part in the
+    /// bus's SYNC (it is starting or operational).
+    pub fn cyclic(&mut self, torque: f32, now: u32, out: &mut Outbox) -> bool {
+        if !matches!(self.stage, Stage::Start | Stage::Operational) {
+            return false;
+        }
+        let n = u16::from(self.config.node);
+        if self.stage == Stage::Operational && self.fault.is_none() {
+            if let Some(state) = self.state() {
+                let command = if self.fault_reset && state.is_fault() {
+                    self.fault_reset = false;
+                    // The bit's rising edge: the previous controlword had it clear.
+                    Some((controlword::FAULT_RESET, DriveState::SwitchOnDisabled))
+                } else if self.transition.is_none() {
+                    step_towards(state, self.target)
+                } else {
+                    None
+                };
+                if let Some((cw, expected)) = command {
+                    self.controlword = cw;
+                    self.transition = Some((expected, now));
+                    out.push(RawFrame::new(RPDO2 + n, &cw.to_le_bytes()));
+                }
+            }
+        }
+        let commanded = if self.target == Target::Operate && self.fault.is_none() { torque } else { 0.0 };
+        out.push(RawFrame::new(RPDO1 + n, &self.config.permille(commanded).to_le_bytes()));
+        self.sync_sent = true;
+        true
+    }
+
+    /// Clears the latched fault: a fault reset of the drive where its
+    /// state machine faulted (EMCY, statusword), a restart from its NMT
+    /// reset otherwise (it stopped answering, its bus went off, its
+    /// configuration failed).
+    pub fn clear_fault(&mut self, now: u32, out: &mut Outbox) {
+        let Some((cause, _)) = self.fault.take() else { return };
+        self.target = Target::Hold;
+        self.reached_operate = false;
+        self.transition = None;
+        match cause {
+            DriveFaultCause::Emergency | DriveFaultCause::StateFault | DriveFaultCause::StateLost
+                if self.stage == Stage::Operational =>
+            {
+                self.fault_reset = true;
+            }
+            _ => self.restart(now, out),
+        }
+    }
+
+    /// An NMT reset of the drive and its start-up from the boot-up.
+    pub fn restart(&mut self, now: u32, out: &mut Outbox) {
+        out.push(RawFrame::new(NMT, &[0x81, self.config.node]));
+        *self = Node::new(self.config, self.timing, now);
+    }
+
+    /// Latches a bus-off of the drive's bus (`code` is the bus, 1 or 2).
+    pub fn bus_off(&mut self) {
+        self.latch(DriveFaultCause::BusOff, u32::from(self.config.bus) + 1);
+    }
+}
