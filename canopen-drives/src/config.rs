@@ -69,6 +69,11 @@ pub struct Timing {
     /// The statusword TPDO's event timer (it is also sent on every
     /// change), ms.
     pub status_refresh_ms: u16,
+    /// The drives' RPDO1 timeout (the RPDO's event timer 0x1400:05,
+    /// CiA 301): a drive that receives no target torque for this long
+    /// reacts as to a lost connection (0x6007 = 3: quick stop, brake), ms.
+    /// The board then faults it too (a missing PDO or heartbeat).
+    pub rpdo_timeout_ms: u16,
     /// Control cycles (SYNCs) per second: the speed from two positions is
     /// their difference times this over the cycles between them.
     pub cycle_hz: u32,
@@ -78,7 +83,7 @@ impl Timing {
     /// The board's timing: boot-up within 2 s, SDO answers within 20 ms,
     /// operational within 200 ms, transitions within 50 ms, 3 SYNCs without
     /// a position, heartbeats every 100 ms (timeout 250 ms), the statusword
-    /// at least every 50 ms, 1 kHz.
+    /// at least every 50 ms, the drives' RPDO timeout 5 ms, 1 kHz.
     pub const DEFAULT: Self = Self {
         boot_cycles: 2000,
         sdo_cycles: 20,
@@ -88,6 +93,7 @@ impl Timing {
         heartbeat_ms: 100,
         heartbeat_timeout_cycles: 250,
         status_refresh_ms: 50,
+        rpdo_timeout_ms: 5,
         cycle_hz: 1000,
     };
 }
@@ -123,7 +129,7 @@ const fn w32(index: u16, sub: u8, value: u32) -> ConfigStep {
 }
 
 /// Steps of [`configuration`].
-pub const CONFIG_STEPS: usize = 30;
+pub const CONFIG_STEPS: usize = 31;
 
 /// A PDO COB-ID with bit 31 set: the PDO is invalid while it is mapped
 /// (CiA 301: the mapping may only change while it is).
@@ -137,7 +143,8 @@ const INVALID: u32 = 0x8000_0000;
 /// 3. mode of operation 0x6060 = 10 (cyclic synchronous torque);
 /// 4. max torque 0x6072 (thousandths of the rated torque);
 /// 5. RPDO1 = target torque 0x6071 (16 bits), synchronous (type 1: applied
-///    at the next SYNC);
+///    at the next SYNC), with its timeout `timing.rpdo_timeout_ms` (a
+///    drive that hears no board quick stops by itself);
 /// 6. RPDO2 = controlword 0x6040 (16 bits), asynchronous (type 255:
 ///    applied on receipt);
 /// 7. TPDO1 = position actual 0x6064 (32 bits), sent after every SYNC
@@ -161,7 +168,8 @@ pub fn configuration(config: &DriveConfig, timing: &Timing) -> [ConfigStep; CONF
         w8(0x1600, 0, 0),
         w32(0x1600, 1, 0x6071_0010),
         w8(0x1600, 0, 1),
-        w8(0x1400, 2, 1),
+        w8(0x1400, 2, 255),
+        w16(0x1400, 5, u32::from(timing.rpdo_timeout_ms)),
         w32(0x1400, 1, cob(RPDO1)),
         // RPDO2: controlword.
         w32(0x1401, 1, INVALID | cob(RPDO2)),

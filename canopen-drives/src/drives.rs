@@ -79,6 +79,7 @@ pub struct BusCounters {
 }
 
 /// The winch drives: cable `i` is `configs[i]`, on the bus it names.
+#[derive(Debug)]
 pub struct CanDrives<P1, P2> {
     port1: P1,
     port2: P2,

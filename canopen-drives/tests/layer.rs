@@ -141,7 +141,9 @@ fn released_brakes_enable_operation_and_the_torques_reach_the_drives_at_the_sync
         assert!(!d.brake_engaged());
         let expected = (b.torques[i] * 1000.0 / RATED).round() as i16;
         assert_eq!(d.target_torque(), expected);
-        assert!((d.torque_nm() - f64::from(b.torques[i])).abs() <= f64::from(RATED) / 2000.0 + 1e-9);
+        assert!(
+            (d.torque_nm(b.rig.now_ns) - f64::from(b.torques[i])).abs() <= f64::from(RATED) / 2000.0 + 1e-9
+        );
     }
     b.cycle().unwrap();
     // Brakes engaged: "switched on", no torque.
@@ -151,7 +153,7 @@ fn released_brakes_enable_operation_and_the_torques_reach_the_drives_at_the_sync
         let d = b.rig.drive(i);
         assert_eq!(d.state(), DriveState::SwitchedOn);
         assert!(d.brake_engaged());
-        assert_eq!(d.torque_nm(), 0.0);
+        assert_eq!(d.torque_nm(b.rig.now_ns + canopen_drives::sim::SimDrive::BRAKE_DELAY_NS), 0.0);
     }
     b.cycle().unwrap();
     assert!(b.layer.ready());
@@ -413,11 +415,36 @@ fn the_emergency_frames_quick_stop_then_zero_then_sync_then_nmt() {
         let d = b.rig.drive(i);
         assert_eq!(d.state(), DriveState::SwitchOnDisabled);
         assert!(d.brake_engaged());
-        assert_eq!(d.torque_nm(), 0.0);
+        assert_eq!(d.torque_nm(b.rig.now_ns + canopen_drives::sim::SimDrive::BRAKE_DELAY_NS), 0.0);
         assert_eq!(d.nmt(), Nmt::PreOperational);
     }
     // A buffer too small takes what fits.
     assert_eq!(emergency_frames(&configs(), 0, &mut out[..3]), 3);
+}
+
+#[test]
+fn drives_that_hear_no_board_quick_stop_by_themselves() {
+    // The board stops (a hang, a reset, its bus cut): no RPDO for 5 ms.
+    let mut b = Bench::operating();
+    let mut at = None;
+    for ms in 1..=20u32 {
+        b.rig.advance(CYCLE_NS);
+        if at.is_none() && (0..CABLES).all(|i| b.rig.drive(i).brake_engaged()) {
+            at = Some(ms);
+        }
+    }
+    let at = at.expect("every brake engaged");
+    println!("without the board, every drive quick stopped within {at} ms");
+    assert!(at <= u32::from(Timing::DEFAULT.rpdo_timeout_ms) + 1, "{at} ms");
+    for i in 0..CABLES {
+        let d = b.rig.drive(i);
+        assert_eq!(d.state(), DriveState::SwitchOnDisabled);
+        assert_eq!(d.rpdo_timeouts, 1);
+        assert_eq!(d.torque_nm(b.rig.now_ns + canopen_drives::sim::SimDrive::BRAKE_DELAY_NS), 0.0);
+    }
+    // The board hears the EMCYs (0x8250, RPDO timeout) when it is back.
+    let (_, f) = b.fault(2);
+    assert_eq!((f.cause, f.code), (DriveFaultCause::Emergency, 0x8250));
 }
 
 /// The cycle on a bus, from the bus's log: the RPDOs, then the SYNC, then

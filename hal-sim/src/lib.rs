@@ -12,6 +12,9 @@
 //!   `cdpr_protocol` frames cross, and the clocks (`TickCounter`);
 //! * [`scenario`]: the scripted runs (static holds, tracking, faults) with
 //!   the task-space PID of `cdpr_control::feedback`;
+//! * [`can`]: the winches behind simulated CiA 402 drives on two
+//!   simulated 1 Mbit/s CAN buses (`Config::can`), the control loop
+//!   writing to the board's `canopen_drives::CanDrives`;
 //! * [`output`]: a CSV table and a PNG plot of each run.
 //!
 //! The models, gains, bounds and results are in `hal-sim/README.md`.
@@ -19,6 +22,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod can;
 pub mod link;
 pub mod output;
 pub mod plant;

@@ -65,8 +65,9 @@ fn main() -> ExitCode {
             }
         }
     };
-    let config = Config::standard();
     for s in scenarios {
+        // The drive and bus faults are the CAN buses' (`Config::can`).
+        let config = if s.can_fault.is_some() { Config::can() } else { Config::standard() };
         let outcome = match run(&s, &config) {
             Ok(o) => o,
             Err(e) => {

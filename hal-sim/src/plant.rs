@@ -339,6 +339,14 @@ impl Plant {
         self.disturbances.push(d);
     }
 
+    /// Makes now time 0 (the scripted faults, disturbances and the brake's
+    /// engagement delay count from it): after a start-up phase that the
+    /// script does not see.
+    pub fn rebase_time(&mut self) {
+        self.brake_since -= self.time;
+        self.time = 0.0;
+    }
+
     /// Simulated time, s.
     pub fn time(&self) -> f64 {
         self.time

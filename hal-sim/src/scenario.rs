@@ -31,6 +31,7 @@ use nalgebra::{SVector, Vector3};
 use tension_core::trajectory::time_law;
 use tension_core::Method;
 
+use crate::can::{CanFault, CanWinches};
 use crate::link::{Host, SerialLink, SimClock, WallTicks, BAUD};
 use crate::plant::{
     CableModel, Derate, Disturbance, Encoders, Mismatch, Plant, PlantFaults, PlantRobot, WinchModel,
@@ -138,6 +139,9 @@ pub struct Scenario {
     /// believes it is (the path's start, which it homes at): zero but for
     /// a wrong homing. Added to the pose components (m, rad).
     pub start_error: [f64; 6],
+    /// A drive or bus fault at `event` (runs on the CAN buses only:
+    /// [`Config::can`]).
+    pub can_fault: Option<CanFault>,
 }
 
 /// The anchor error of every scenario, m: each of the plant's anchors is
@@ -188,6 +192,7 @@ impl Scenario {
             // `all` adds the joint-space variant of each.
             scheme: Scheme::TaskSpace,
             start_error: [0.0; 6],
+            can_fault: None,
         }
     }
 
@@ -305,6 +310,26 @@ impl Scenario {
         s.event = Some(stuck);
         out.push(s);
 
+        // On the CAN buses (`Config::can`), mid-loop like `encoder-stuck`.
+        for (name, description, fault) in [
+            (
+                "can-drive-fault",
+                "cable 3's drive faults (EMCY 0x2310 over-current) at 2 s, mid-loop",
+                CanFault::DriveFault { cable: 2, code: 0x2310 },
+            ),
+            (
+                "can-drive-drop",
+                "cable 6's drive drops off the bus at 2 s, mid-loop",
+                CanFault::DropOff { cable: 5 },
+            ),
+            ("can-bus-off", "CAN2 goes bus-off at the board at 2 s, mid-loop", CanFault::BusOff { bus: 1 }),
+        ] {
+            let mut s = Self::base(name, description, 3.0, TRACK);
+            s.can_fault = Some(fault);
+            s.event = Some(stuck);
+            out.push(s);
+        }
+
         let mut s = Self::base(
             "wrong-homing",
             "the host homes (and starts its loop) 20 mm off the true pose, along x",
@@ -392,6 +417,9 @@ pub struct Config {
     pub cable: CableModel,
     /// The friction the controller compensates.
     pub friction: Option<FrictionCompensation>,
+    /// The winches behind CiA 402 drives on two simulated CAN buses
+    /// ([`crate::can`]) instead of read and written directly.
+    pub can: bool,
 }
 
 /// The controller's friction model: 80 % of the simulated winches'
@@ -433,7 +461,13 @@ impl Config {
             winch: WinchModel::DEFAULT,
             cable: CableModel::DEFAULT,
             friction: Some(FRICTION_ESTIMATE),
+            can: false,
         }
+    }
+
+    /// [`Config::standard`] with the winches on the CAN buses.
+    pub fn can() -> Self {
+        Self { can: true, ..Self::standard() }
     }
 }
 
@@ -476,6 +510,9 @@ pub struct Row {
     pub residual: f32,
     /// The drive the loop could not read this cycle.
     pub unreadable_drive: Option<u8>,
+    /// On the CAN buses: the drives whose brake is engaged at the cycle's
+    /// end, one bit per cable (`None` without the buses).
+    pub drive_brakes: Option<u8>,
 }
 
 impl Row {
@@ -570,6 +607,9 @@ fn load_encoders() -> Result<(EncoderScale, [i8; CABLES], u32), String> {
     Ok((scale, signs, cpr))
 }
 
+/// Cycles the CAN drives have to start up in (`Config::can`).
+pub const CAN_START_CYCLES: u32 = 500;
+
 /// Runs `scenario` with `config`.
 pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let robot = load_robot()?;
@@ -607,6 +647,31 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let send = |host: &Host, link: &mut SerialLink, m: HostMessage| {
         host.send(link, &m).map_err(|e| format!("encode: {e:?}"))
     };
+    // On the CAN buses the drives start up first (boot-up, configuration,
+    // NMT start: about 60 ms) with the platform on its brakes; the host's
+    // script (and the records) start once they are ready.
+    let mut can = if config.can {
+        let file = robot_file::RobotFile::load(robot_file_path()).map_err(|e| e.to_string())?;
+        let mut c = CanWinches::for_robot_file(&file)?;
+        let mut ready = false;
+        for _ in 0..CAN_START_CYCLES {
+            c.before_step();
+            control.step(&clock, &mut c.layer, false);
+            c.advance(&mut plant, PERIOD);
+            clock.micros += 1000;
+            if c.layer.ready() {
+                ready = true;
+                break;
+            }
+        }
+        if !ready {
+            return Err(format!("the CAN drives were not ready after {CAN_START_CYCLES} cycles"));
+        }
+        plant.rebase_time();
+        Some(c)
+    } else {
+        None
+    };
     send(&host, &mut link, HostMessage::TelemetryPeriod(10))?;
     // The host believes the platform rests at the path's start on its
     // brakes (it does, but with a wrong homing): it homes there.
@@ -641,9 +706,20 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
             control.receive_byte(b);
         }
 
+        if let (Some(c), Some(fault), Some(at)) = (&mut can, scenario.can_fault, scenario.event) {
+            if k == (at / PERIOD).round() as u32 {
+                c.inject(fault);
+            }
+        }
         let sample = plant.sample();
         let start = wall.ticks();
-        let report = control.step(&clock, &mut plant, false);
+        let report = match &mut can {
+            Some(c) => {
+                c.before_step();
+                control.step(&clock, &mut c.layer, false)
+            }
+            None => control.step(&clock, &mut plant, false),
+        };
         // The reference is what the board plays: the points' time (their
         // number) or, streaming setpoints, the newest one's cycle.
         let played = match (config.stream, control.newest_setpoint()) {
@@ -694,8 +770,17 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
                 _ => f32::NAN,
             },
             unreadable_drive: report.unreadable_drive,
+            drive_brakes: None,
         });
-        plant.advance(PERIOD);
+        match &mut can {
+            Some(c) => {
+                c.advance(&mut plant, PERIOD);
+                if let Some(row) = rows.last_mut() {
+                    row.drive_brakes = Some(c.brakes());
+                }
+            }
+            None => plant.advance(PERIOD),
+        }
         clock.micros += 1000;
     }
     Ok(Outcome {

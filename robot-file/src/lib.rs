@@ -608,7 +608,7 @@ fn drive_spec(text: &str, winch: Option<&WinchToml>, cables: usize) -> Result<Dr
                     r.span(),
                 ));
             }
-            if !(torque_max / value * 1000.0 <= f64::from(i16::MAX)) {
+            if torque_max.is_nan() || torque_max / value * 1000.0 > f64::from(i16::MAX) {
                 return Err(format(
                     format!("[winch] rated_torque = {value}: torque_max = {torque_max} is over 32.767 times it (the drives' target torque is an i16 in thousandths of the rated torque)"),
                     r.span(),

@@ -101,9 +101,23 @@ pub struct SimDrive {
     pub syncs: u32,
     /// The time of the last SYNC, ns.
     pub last_sync_ns: u64,
+    /// When RPDO1 last came while operational (its timeout is armed by the
+    /// first), ns.
+    last_rpdo_ns: Option<u64>,
+    /// RPDO timeouts seen (each an EMCY 0x8250 and the 0x6007 reaction).
+    pub rpdo_timeouts: u32,
+    /// When it last left "operation enabled", ns.
+    disabled_at: Option<u64>,
+    was_enabled: bool,
+    /// The time of the last frame or tick, ns.
+    now_ns: u64,
 }
 
 impl SimDrive {
+    /// How long the drive keeps the torque after leaving "operation
+    /// enabled" (its brake's engagement time): 20 ms, the plant's.
+    pub const BRAKE_DELAY_NS: u64 = 20_000_000;
+
     /// A drive with node id `node` and rated torque `rated_torque_mnm`,
     /// not powered yet.
     pub fn new(node: u8, rated_torque_mnm: u32) -> Self {
@@ -130,6 +144,11 @@ impl SimDrive {
             bad_pdo: 0,
             syncs: 0,
             last_sync_ns: 0,
+            last_rpdo_ns: None,
+            rpdo_timeouts: 0,
+            disabled_at: None,
+            was_enabled: false,
+            now_ns: 0,
         }
     }
 
@@ -169,10 +188,15 @@ impl SimDrive {
         self.position = counts;
     }
 
-    /// The torque the motor makes, N m: the target within the max torque
-    /// in "operation enabled", zero otherwise.
-    pub fn torque_nm(&self) -> f64 {
-        if self.state != DriveState::OperationEnabled {
+    /// The torque the motor makes at `now_ns`, N m: the target within the
+    /// max torque in "operation enabled", and for [`SimDrive::BRAKE_DELAY_NS`]
+    /// after leaving it other than by a fault (the drive holds the load
+    /// while its brake engages, as servo drives with a brake output do);
+    /// zero otherwise.
+    pub fn torque_nm(&self, now_ns: u64) -> f64 {
+        let holding = matches!(self.disabled_at, Some(t) if now_ns < t + Self::BRAKE_DELAY_NS);
+        let held = holding && !self.state.is_fault();
+        if self.state != DriveState::OperationEnabled && !held {
             return 0.0;
         }
         let m = i32::from(self.max_torque.min(i16::MAX as u16));
@@ -227,6 +251,7 @@ impl SimDrive {
     }
 
     fn leave_operational(&mut self) {
+        self.last_rpdo_ns = None;
         // Abort connection option 0x6007: 3 = quick stop, 2 = disable
         // voltage, 1 = fault; the drive leaves "operation enabled".
         if self.nmt == Nmt::Operational && self.state == DriveState::OperationEnabled {
@@ -240,7 +265,25 @@ impl SimDrive {
     /// Timed frames at `now_ns`: the heartbeat every producer time, the
     /// statusword TPDO by its event timer.
     pub fn tick(&mut self, now_ns: u64, out: &mut Vec<RawFrame>) {
-        if self.faults.silent || self.nmt == Nmt::Initialising {
+        self.now_ns = now_ns;
+        self.note_state();
+        if self.nmt == Nmt::Initialising {
+            return;
+        }
+        // RPDO1's timeout (CiA 301's RPDO event timer): no target torque for
+        // that long is a lost connection.
+        let timeout = u64::from(self.rpdo[0].event_ms) * 1_000_000;
+        if let Some(last) = self.last_rpdo_ns {
+            if self.nmt == Nmt::Operational && timeout > 0 && now_ns > last + timeout {
+                self.last_rpdo_ns = None;
+                self.rpdo_timeouts += 1;
+                self.emcy(0x8250, out);
+                self.leave_operational();
+            }
+        }
+        self.note_state();
+        // Off the bus, a drive still times out (above) but sends nothing.
+        if self.faults.silent {
             return;
         }
         let hb = u64::from(self.heartbeat_ms) * 1_000_000;
@@ -260,8 +303,18 @@ impl SimDrive {
         }
     }
 
+    fn note_state(&mut self) {
+        if self.state == DriveState::OperationEnabled {
+            self.disabled_at = None;
+        } else if self.disabled_at.is_none() && self.was_enabled {
+            self.disabled_at = Some(self.now_ns);
+        }
+        self.was_enabled = self.state == DriveState::OperationEnabled;
+    }
+
     /// A frame on the bus, delivered at `now_ns`; answers into `out`.
     pub fn receive(&mut self, frame: &RawFrame, now_ns: u64, out: &mut Vec<RawFrame>) {
+        self.now_ns = now_ns;
         if self.faults.silent || self.nmt == Nmt::Initialising {
             return;
         }
@@ -288,6 +341,9 @@ impl SimDrive {
             for k in 0..2 {
                 let p = self.rpdo[k];
                 if p.valid() && u32::from(frame.id) == p.cob & 0x7FF {
+                    if k == 0 {
+                        self.last_rpdo_ns = Some(now_ns);
+                    }
                     if data.len() != p.bytes() {
                         self.bad_pdo += 1;
                         // PDO not processed due to length error.
@@ -495,7 +551,8 @@ impl SimDrive {
                 match sub {
                     1 => need(4).map(|()| p.cob = value),
                     2 => need(1).map(|()| p.kind = value as u8),
-                    5 if !rx => need(2).map(|()| p.event_ms = value as u16),
+                    // A TPDO's event timer; an RPDO's is its timeout.
+                    5 => need(2).map(|()| p.event_ms = value as u16),
                     _ => Err(0x0609_0011),
                 }
             }
