@@ -137,6 +137,21 @@ fn generate(path: &Path) -> Result<String, String> {
         "/// `[winch] encoder_sign` per cable (`1`: the counts rise as the cable pays out).\npub const ENCODER_SIGNS: [i8; CABLES] = {};",
         list(file.encoder.signs.iter().map(|s| s.to_string()))
     );
+    let _ = writeln!(
+        s,
+        "/// `[winch] rated_torque`, N m: the drives' 0x6076 (NaN when the file does not say: the CAN drives then fail their start-up check).\npub const RATED_TORQUE: f32 = {};",
+        file.drives.rated_torque.map_or("f32::NAN".to_string(), lit)
+    );
+    let _ = writeln!(
+        s,
+        "/// `[winch] node_id` per cable: the drives' CANopen node ids.\npub const DRIVE_NODES: [u8; CABLES] = {};",
+        list(file.drives.node_ids.iter().map(|n| n.to_string()))
+    );
+    let _ = writeln!(
+        s,
+        "/// `[winch] can_bus` per cable, 0-based (0 CAN1, 1 CAN2).\npub const DRIVE_BUSES: [u8; CABLES] = {};",
+        list(file.drives.buses.iter().map(|b| (b - 1).to_string()))
+    );
     let identity = file.identity();
     let _ = writeln!(
         s,

@@ -1,18 +1,18 @@
 //! The winch drives and the emergency stop.
 //!
-//! The QEMU board has no drives, so the commands are kept (the last one)
-//! and counted, and the encoders are a stand-in
+//! On the real STM32F405 (`board` feature) the winches are CiA 402 servo
+//! drives on CAN1 and CAN2 (`canopen_drives::CanDrives` over
+//! [`crate::can`]): start-up, the state machine, torques out and
+//! positions in every cycle, the drives' faults as `Reason::Drive`; the
+//! brakes are the drives' brake outputs, and [`emergency_stop`] writes
+//! quick stop, zero torque and NMT pre-operational straight into the
+//! CAN mailboxes.
+//!
+//! The QEMU board has no drives (QEMU models no bxCAN), so the commands
+//! are kept (the last one) and counted, and the encoders are a stand-in
 //! ([`cdpr_demo::winches::LagWinches`]: the cables follow the tracked
 //! setpoint with a 5 ms lag, read as counts), advanced by the program
-//! outside the measured step ([`Drives::advance`]). On the real STM32F405
-//! (`board` feature) the encoders come with the CAN drives of a later
-//! issue: until then [`WinchDrives::read`] is
-//! [`DriveError::NoEncoders`], which keeps the control loop unhomed, so
-//! every `Enable` is refused: the board never commands torques it cannot
-//! close the loop on. A board port puts its PWM timers and pins behind
-//! [`cdpr_control::drives::PwmDrives`] (embedded-hal 1.0) or a CAN driver
-//! here, and makes [`emergency_stop`] write zero torque and drop the brake
-//! pin directly.
+//! outside the measured step ([`Drives::advance`]).
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
@@ -27,12 +27,22 @@ static LAST_TORQUES: [AtomicU32; CABLES] = [const { AtomicU32::new(0) }; CABLES]
 /// Whether the brakes were last commanded engaged.
 static BRAKES: AtomicBool = AtomicBool::new(true);
 
+/// The CiA 402 drives on the board's two CAN controllers.
+#[cfg(feature = "board")]
+pub type CanBus = canopen_drives::CanDrives<
+    crate::can::BoardPort<crate::can::Can1>,
+    crate::can::BoardPort<crate::can::Can2>,
+>;
+
 /// The winch drives.
 pub struct Drives {
     writes: u32,
     /// The encoders' stand-in (QEMU only; `None` until placed).
     #[cfg(not(feature = "board"))]
     stand_in: Option<cdpr_demo::winches::LagWinches>,
+    /// The drives on the buses (board).
+    #[cfg(feature = "board")]
+    bus: Option<CanBus>,
 }
 
 impl Drives {
@@ -42,7 +52,15 @@ impl Drives {
             writes: 0,
             #[cfg(not(feature = "board"))]
             stand_in: None,
+            #[cfg(feature = "board")]
+            bus: None,
         }
+    }
+
+    /// The drives on the CAN buses (board).
+    #[cfg(feature = "board")]
+    pub fn on_can(bus: CanBus) -> Self {
+        Self { writes: 0, bus: Some(bus) }
     }
 
     /// Commands written so far.
@@ -93,9 +111,12 @@ impl Default for Drives {
 pub enum DriveError {
     /// The emergency stop has run.
     Stopped,
-    /// No encoder to read (the real board before its CAN drives; QEMU
-    /// before the stand-in is placed).
+    /// No encoder to read (QEMU before the stand-in is placed; the board
+    /// without its buses).
     NoEncoders,
+    /// The CAN drives' error (board).
+    #[cfg(feature = "board")]
+    Can(canopen_drives::CanDrivesError),
 }
 
 impl WinchDrives for Drives {
@@ -109,6 +130,10 @@ impl WinchDrives for Drives {
             slot.store(t.to_bits(), Ordering::Relaxed);
         }
         self.writes = self.writes.wrapping_add(1);
+        #[cfg(feature = "board")]
+        if let Some(bus) = &mut self.bus {
+            return bus.apply(torques).map_err(DriveError::Can);
+        }
         Ok(())
     }
 
@@ -117,6 +142,10 @@ impl WinchDrives for Drives {
             return Err(DriveError::Stopped);
         }
         BRAKES.store(engaged, Ordering::Relaxed);
+        #[cfg(feature = "board")]
+        if let Some(bus) = &mut self.bus {
+            return bus.set_brakes(engaged).map_err(DriveError::Can);
+        }
         Ok(())
     }
 
@@ -129,8 +158,49 @@ impl WinchDrives for Drives {
             *readings = *w.readings();
             return Ok(());
         }
+        #[cfg(feature = "board")]
+        if let Some(bus) = &mut self.bus {
+            return bus.read(readings).map_err(DriveError::Can);
+        }
         let _ = readings;
         Err(DriveError::NoEncoders)
+    }
+
+    fn failed_drive(&self, error: &DriveError) -> Option<usize> {
+        match (error, self.can()) {
+            #[cfg(feature = "board")]
+            (DriveError::Can(e), Some(bus)) => bus.failed_drive(e),
+            _ => None,
+        }
+    }
+
+    fn drive_fault(&self, error: &DriveError) -> Option<cdpr_control::protocol::DriveFault> {
+        match (error, self.can()) {
+            #[cfg(feature = "board")]
+            (DriveError::Can(e), Some(bus)) => bus.drive_fault(e),
+            _ => None,
+        }
+    }
+
+    fn clear_faults(&mut self) {
+        #[cfg(feature = "board")]
+        if let Some(bus) = &mut self.bus {
+            bus.clear_faults();
+        }
+    }
+}
+
+impl Drives {
+    /// The CAN drives, if any (none under QEMU).
+    #[cfg(feature = "board")]
+    fn can(&self) -> Option<&CanBus> {
+        self.bus.as_ref()
+    }
+
+    /// The CAN drives, if any (none under QEMU).
+    #[cfg(not(feature = "board"))]
+    fn can(&self) -> Option<&()> {
+        None
     }
 }
 
@@ -151,4 +221,9 @@ pub fn emergency_stop() {
         slot.store(0.0f32.to_bits(), Ordering::Relaxed);
     }
     BRAKES.store(true, Ordering::Relaxed);
+    // The drives' quick stop over both buses (their brakes engage as they
+    // leave "operation enabled"); a drive that misses it stops on its own
+    // when its RPDO timeout passes with no board (5 ms).
+    #[cfg(feature = "board")]
+    crate::can::emergency_stop(&crate::robot::drive_configs());
 }

@@ -16,7 +16,8 @@
 //! * [`mono`]: the RTIC monotonic on TIM5; [`periodic`]: the 1 ms release
 //!   every control loop runs on;
 //! * [`clock`]: TIM2 as the tick counter that times the steps;
-//! * [`drives`]: the winch drives and the emergency stop; [`serial`]:
+//! * [`drives`]: the winch drives and the emergency stop (on the board
+//!   the CiA 402 drives on CAN1 and CAN2 through [`can`]); [`serial`]:
 //!   USART1; [`stack`]: stack painting; [`robot`]: the robot's constants,
 //!   generated from its robot file;
 //! * [`demo`]: the demo run (the `demo` and `inject-*` programs);
@@ -27,6 +28,8 @@
 #![no_std]
 
 pub mod bsp;
+#[cfg(feature = "board")]
+pub mod can;
 pub mod clock;
 pub mod demo;
 pub mod drives;
@@ -66,7 +69,44 @@ pub struct Rest {
     pub usart1: USART1,
     /// The independent watchdog ([`Board::start_watchdog`]).
     pub iwdg: IWDG,
+    /// The CAN controllers' interrupt sides (nothing under QEMU): the
+    /// product binds CAN1_TX, CAN1_RX0, CAN2_TX and CAN2_RX0 to them.
+    pub can: (Can1Irq, Can2Irq),
 }
+
+/// What the CAN interrupts do: move frames between a controller and its
+/// queues (board); nothing under QEMU, which models no bxCAN.
+pub trait CanInterrupt {
+    /// A transmit mailbox emptied, or frames were queued.
+    fn on_transmit(&mut self) {}
+    /// A frame arrived.
+    fn on_receive(&mut self) {}
+}
+
+impl CanInterrupt for () {}
+
+#[cfg(feature = "board")]
+impl<C: can::Controller> CanInterrupt for can::CanIrq<C> {
+    fn on_transmit(&mut self) {
+        can::CanIrq::on_transmit(self);
+    }
+    fn on_receive(&mut self) {
+        can::CanIrq::on_receive(self);
+    }
+}
+
+/// CAN1's interrupt side.
+#[cfg(feature = "board")]
+pub type Can1Irq = can::CanIrq<can::Can1>;
+/// CAN2's interrupt side.
+#[cfg(feature = "board")]
+pub type Can2Irq = can::CanIrq<can::Can2>;
+/// No CAN under QEMU.
+#[cfg(not(feature = "board"))]
+pub type Can1Irq = ();
+/// No CAN under QEMU.
+#[cfg(not(feature = "board"))]
+pub type Can2Irq = ();
 
 impl Board {
     /// Brings the board up: stack painting, the board's clocks, TIM2 and
@@ -98,8 +138,34 @@ impl Board {
             Ok(scale) => control.set_encoder(scale),
             Err(e) => panic!("robot file's encoders rejected: {:?}", e),
         }
-        let board = Self { clock, calibration_ticks, drives: Drives::new(), control };
-        (board, Rest { rcc: dp.RCC, usart1: dp.USART1, iwdg: dp.IWDG })
+        #[cfg(not(feature = "board"))]
+        let drives = Drives::new();
+        #[cfg(feature = "board")]
+        let (drives, can) = {
+            use heapless::spsc::Queue;
+            let queues = match (
+                cortex_m::singleton!(: Queue<bxcan::Frame, { can::QUEUE }> = Queue::new()),
+                cortex_m::singleton!(: Queue<bxcan::Frame, { can::QUEUE }> = Queue::new()),
+                cortex_m::singleton!(: Queue<bxcan::Frame, { can::QUEUE }> = Queue::new()),
+                cortex_m::singleton!(: Queue<bxcan::Frame, { can::QUEUE }> = Queue::new()),
+            ) {
+                (Some(tx1), Some(rx1), Some(tx2), Some(rx2)) => can::Queues { tx1, rx1, tx2, rx2 },
+                _ => panic!("the CAN queues were taken twice"),
+            };
+            let ((port1, port2), irq) = can::start(dp.CAN1, dp.CAN2, &dp.RCC, queues);
+            let bus = canopen_drives::CanDrives::new(
+                port1,
+                port2,
+                robot::drive_configs(),
+                canopen_drives::Timing::DEFAULT,
+            );
+            (Drives::on_can(bus), irq)
+        };
+        let board = Self { clock, calibration_ticks, drives, control };
+        #[cfg(not(feature = "board"))]
+        let can = ((), ());
+        let rest = Rest { rcc: dp.RCC, usart1: dp.USART1, iwdg: dp.IWDG, can };
+        (board, rest)
     }
 
     /// Puts the encoders' stand-in (QEMU) at rest at `pose`: where the

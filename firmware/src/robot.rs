@@ -84,3 +84,14 @@ pub fn joint_integral_max() -> f32 {
 
 /// The robot's number of cables is the protocol's.
 const _: () = assert!(ANCHORS.len() == CABLES);
+
+/// The winch drives on the CAN buses: the robot file's node ids, buses,
+/// rated torque and torque limit.
+pub fn drive_configs() -> [canopen_drives::DriveConfig; CABLES] {
+    core::array::from_fn(|i| canopen_drives::DriveConfig {
+        bus: DRIVE_BUSES[i],
+        node: DRIVE_NODES[i],
+        rated_torque: RATED_TORQUE,
+        torque_max: TORQUE_MAX,
+    })
+}

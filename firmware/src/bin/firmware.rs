@@ -23,11 +23,14 @@ mod app {
     use cdpr_protocol::{encode, DeviceMessage, MAX_FRAME};
     use firmware::periodic::Releases;
     use firmware::serial::{self, Receiver, Transmitter, RX_QUEUE, TX_QUEUE};
-    use firmware::{bsp, clock, drives, robot, stack, Board};
+    use firmware::{bsp, clock, drives, robot, stack, Board, CanInterrupt};
     use heapless::spsc::{Consumer, Producer, Queue};
 
     #[shared]
-    struct Shared {}
+    struct Shared {
+        can1: firmware::Can1Irq,
+        can2: firmware::Can2Irq,
+    }
 
     #[local]
     struct Local {
@@ -54,9 +57,10 @@ mod app {
         if control::spawn().is_err() {
             panic!("control task already spawned");
         }
+        let (can1, can2) = rest.can;
         let local =
             Local { board, rx, tx, receiver: Receiver::new(rx_in), transmitter: Transmitter::new(tx_out) };
-        (Shared {}, local)
+        (Shared { can1, can2 }, local)
     }
 
     #[idle]
@@ -69,6 +73,32 @@ mod app {
     #[task(binds = USART1, priority = 3, local = [receiver])]
     fn usart1(cx: usart1::Context) {
         cx.local.receiver.on_interrupt();
+    }
+
+    /// CAN1's mailboxes from its queue (board; QEMU has no bxCAN and never
+    /// raises it): above the control task, so a cycle's RPDOs and SYNC go
+    /// out as soon as they are queued.
+    #[task(binds = CAN1_TX, priority = 3, shared = [can1])]
+    fn can1_tx(mut cx: can1_tx::Context) {
+        cx.shared.can1.lock(CanInterrupt::on_transmit);
+    }
+
+    /// CAN1's received frames into its queue (board).
+    #[task(binds = CAN1_RX0, priority = 3, shared = [can1])]
+    fn can1_rx(mut cx: can1_rx::Context) {
+        cx.shared.can1.lock(CanInterrupt::on_receive);
+    }
+
+    /// CAN2's mailboxes from its queue (board).
+    #[task(binds = CAN2_TX, priority = 3, shared = [can2])]
+    fn can2_tx(mut cx: can2_tx::Context) {
+        cx.shared.can2.lock(CanInterrupt::on_transmit);
+    }
+
+    /// CAN2's received frames into its queue (board).
+    #[task(binds = CAN2_RX0, priority = 3, shared = [can2])]
+    fn can2_rx(mut cx: can2_rx::Context) {
+        cx.shared.can2.lock(CanInterrupt::on_receive);
     }
 
     /// Writes queued telemetry to the line (lowest priority).
