@@ -142,9 +142,11 @@ const INVALID: u32 = 0x8000_0000;
 ///    state change, quick stops the drive);
 /// 3. mode of operation 0x6060 = 10 (cyclic synchronous torque);
 /// 4. max torque 0x6072 (thousandths of the rated torque);
-/// 5. RPDO1 = target torque 0x6071 (16 bits), synchronous (type 1: applied
-///    at the next SYNC), with its timeout `timing.rpdo_timeout_ms` (a
-///    drive that hears no board quick stops by itself);
+/// 5. RPDO1 = target torque 0x6071 (16 bits), asynchronous (type 255:
+///    applied on receipt, 0.1-0.4 ms into the cycle; type 1 would hold it
+///    to the SYNC, 0.45 ms, and the loop has no delay to spare: see the
+///    crate's README), with its timeout `timing.rpdo_timeout_ms` (a drive
+///    that hears no board quick stops by itself);
 /// 6. RPDO2 = controlword 0x6040 (16 bits), asynchronous (type 255:
 ///    applied on receipt);
 /// 7. TPDO1 = position actual 0x6064 (32 bits), sent after every SYNC

@@ -8,9 +8,10 @@
 //!    port (at most [`RX_PER_CYCLE`]): the drives' positions sampled at the
 //!    last SYNC (TPDO1), statuswords (TPDO2), heartbeats, EMCYs, SDO
 //!    answers; each drive's checks and start-up frames follow;
-//! 2. `set_brakes` + `apply`: per drive its RPDO1 (target torque), its RPDO2
-//!    when a CiA 402 transition is due (controlword), then one SYNC: the
-//!    drives apply the torque at the SYNC and answer with their positions.
+//! 2. `set_brakes` + `apply`: per drive its RPDO2 when a CiA 402
+//!    transition is due (controlword), its RPDO1 (target torque, applied on
+//!    receipt), then one SYNC: the drives answer with their positions
+//!    sampled at it.
 //!
 //! The ports must send in the order given (bxCAN: transmit FIFO priority,
 //! `TXFP`): the SYNC after the RPDOs, or the torques would wait a cycle.

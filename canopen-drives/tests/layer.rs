@@ -128,12 +128,12 @@ fn start_up_configures_every_drive_and_then_reads_it() {
 }
 
 #[test]
-fn released_brakes_enable_operation_and_the_torques_reach_the_drives_at_the_sync() {
+fn released_brakes_enable_operation_and_the_torques_reach_the_drives_in_the_cycle() {
     let mut b = Bench::started();
     b.brakes = false;
     b.torques = core::array::from_fn(|i| 0.1 * i as f32 - 0.3);
-    // One cycle: the controlword goes out before the SYNC; the drives are
-    // enabled and take the torque at that SYNC.
+    // One cycle: the controlword goes out before the torques; the drives
+    // are enabled and take the torque on receipt (RPDO1 type 255).
     b.cycle().unwrap();
     for i in 0..CABLES {
         let d = b.rig.drive(i);
