@@ -20,15 +20,21 @@ pub struct DriveConfig {
 
 impl DriveConfig {
     /// `torque` (N m) as a target torque in thousandths of the rated
-    /// torque, rounded, within `+-max_torque_permille`; 0 for a
-    /// non-finite torque.
+    /// torque, rounded half away from zero, within
+    /// `+-max_torque_permille`; 0 for a non-finite torque.
     pub fn permille(&self, torque: f32) -> i16 {
-        let limit = f32::from(self.max_torque_permille());
-        let t = torque * 1000.0 / self.rated_torque;
-        if !t.is_finite() {
-            return 0;
+        permille_of(torque, self.permille_per_nm(), f32::from(self.max_torque_permille()))
+    }
+
+    /// Thousandths of the rated torque per N m (0 for a rated torque that
+    /// is not positive and finite).
+    pub fn permille_per_nm(&self) -> f32 {
+        let k = 1000.0 / self.rated_torque;
+        if k.is_finite() && k > 0.0 {
+            k
+        } else {
+            0.0
         }
-        libm::roundf(t.clamp(-limit, limit)) as i16
     }
 
     /// The drive's max torque 0x6072: `torque_max` in thousandths of the
@@ -42,6 +48,17 @@ impl DriveConfig {
             0
         }
     }
+}
+
+/// `torque * per_nm` within `+-max`, rounded half away from zero (the
+/// `as` cast truncates and saturates); 0 for a non-finite torque.
+pub fn permille_of(torque: f32, per_nm: f32, max: f32) -> i16 {
+    let t = torque * per_nm;
+    if !t.is_finite() {
+        return 0;
+    }
+    let t = t.clamp(-max, max);
+    (t + if t >= 0.0 { 0.5 } else { -0.5 }) as i16
 }
 
 /// The layer's timing, in control cycles (one `WinchDrives::read` each,

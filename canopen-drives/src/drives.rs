@@ -172,21 +172,23 @@ impl<P1: CanPort, P2: CanPort> CanDrives<P1, P2> {
 
     /// Sends bus `bus`'s outbox; an error if the port did not take a frame.
     fn flush(&mut self, bus: usize) -> Result<(), CanDrivesError> {
-        let overflowed = self.outbox[bus].overflowed != 0;
-        let mut result = if overflowed { Err(CanDrivesError::Transmit { bus: bus as u8 }) } else { Ok(()) };
-        let outbox = self.outbox[bus];
+        let outbox = &mut self.outbox[bus];
+        let mut result =
+            if outbox.overflowed != 0 { Err(CanDrivesError::Transmit { bus: bus as u8 }) } else { Ok(()) };
+        let mut sent = 0u32;
         for raw in outbox.frames() {
-            let sent = match bus {
+            let ok = match bus {
                 0 => transmit(&mut self.port1, raw),
                 _ => transmit(&mut self.port2, raw),
             };
-            if sent {
-                self.counters.sent = self.counters.sent.wrapping_add(1);
+            if ok {
+                sent += 1;
             } else {
                 result = Err(CanDrivesError::Transmit { bus: bus as u8 });
             }
         }
-        self.outbox[bus].clear();
+        outbox.clear();
+        self.counters.sent = self.counters.sent.wrapping_add(sent);
         result
     }
 

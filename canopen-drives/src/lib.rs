@@ -22,9 +22,11 @@
 //!   faults;
 //! * [`drives`]: [`CanDrives`], the eight drives on two buses as a
 //!   `WinchDrives`, and the emergency stop's frames;
-//! * [`sim`] (feature `sim`): a CiA 402 drive model at frame level and a
-//!   1 Mbit/s bus that delivers frames with their transmission time in
-//!   arbitration order.
+//! * [`model`] (feature `model`, no_std): a CiA 402 drive model at frame
+//!   level and an in-memory loopback port;
+//! * [`sim`] (feature `sim`, std): a 1 Mbit/s bus that delivers frames
+//!   with their transmission time in arbitration order, and the eight
+//!   drives on two of them.
 //!
 //! `canopen-rs` (no_std, no allocation) supplies the CiA 301 codecs used at
 //! start-up: the SDO client, NMT commands, heartbeat states and EMCY
@@ -39,6 +41,8 @@ pub mod cia402;
 pub mod config;
 pub mod drives;
 pub mod frame;
+#[cfg(feature = "model")]
+pub mod model;
 pub mod node;
 #[cfg(feature = "sim")]
 pub mod sim;

@@ -91,6 +91,10 @@ pub enum Received {
 #[derive(Debug)]
 pub struct Node {
     config: DriveConfig,
+    /// Thousandths of the rated torque per N m, and the largest magnitude
+    /// (0x6072), for the cyclic target torque.
+    permille_per_nm: f32,
+    permille_max: f32,
     timing: Timing,
     steps: [ConfigStep; CONFIG_STEPS],
     stage: Stage,
@@ -125,6 +129,8 @@ impl Node {
     /// A drive waiting for its boot-up since cycle `now`.
     pub fn new(config: DriveConfig, timing: Timing, now: u32) -> Self {
         Self {
+            permille_per_nm: config.permille_per_nm(),
+            permille_max: f32::from(config.max_torque_permille()),
             steps: configuration(&config, &timing),
             sdo: NodeId::new(config.node).ok().map(SdoClient::new),
             config,
@@ -313,7 +319,10 @@ impl Node {
             if self.pdo_fresh {
                 if let (Some(p), Some((from, cycles))) = (self.position, self.speed_from) {
                     let counts = i64::from(p.wrapping_sub(from));
-                    let s = counts * i64::from(self.timing.cycle_hz) / i64::from(cycles.max(1));
+                    let per_second = counts * i64::from(self.timing.cycle_hz);
+                    // One cycle apart (the rule): no 64-bit division,
+                    // which is a library call on the Cortex-M4.
+                    let s = if cycles <= 1 { per_second } else { per_second / i64::from(cycles) };
                     self.speed = s.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
                 }
                 self.speed_from = self.position.map(|p| (p, 1));
@@ -451,9 +460,15 @@ impl Node {
             }
         }
         let commanded = if self.target == Target::Operate && self.fault.is_none() { torque } else { 0.0 };
-        out.push(RawFrame::new(RPDO1 + n, &self.config.permille(commanded).to_le_bytes()));
+        out.push(RawFrame::new(RPDO1 + n, &self.permille(commanded).to_le_bytes()));
         self.sync_sent = true;
         true
+    }
+
+    /// [`DriveConfig::permille`] with its constants computed once (no
+    /// division, no `ceilf` in the cycle).
+    fn permille(&self, torque: f32) -> i16 {
+        crate::config::permille_of(torque, self.permille_per_nm, self.permille_max)
     }
 
     /// Clears the latched fault: a fault reset of the drive where its
@@ -484,5 +499,27 @@ impl Node {
     /// Latches a bus-off of the drive's bus (`code` is the bus, 1 or 2).
     pub fn bus_off(&mut self) {
         self.latch(DriveFaultCause::BusOff, u32::from(self.config.bus) + 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cyclic path's precomputed conversion is `DriveConfig::permille`.
+    #[test]
+    fn the_cyclic_permille_is_the_configs() {
+        let config = DriveConfig { bus: 0, node: 1, rated_torque: 0.64, torque_max: 2.5 };
+        let node = Node::new(config, Timing::DEFAULT, 0);
+        let mut checked = 0;
+        for k in -40_000..=40_000 {
+            let torque = k as f32 * 1e-4;
+            assert_eq!(node.permille(torque), config.permille(torque), "{torque}");
+            checked += 1;
+        }
+        for t in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, -1e30] {
+            assert_eq!(node.permille(t), config.permille(t), "{t}");
+        }
+        assert_eq!(checked, 80_001);
     }
 }

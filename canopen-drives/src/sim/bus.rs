@@ -4,10 +4,8 @@ use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::rc::Rc;
 
-use embedded_can::{ErrorKind, ExtendedId, Frame, Id, StandardId};
-
-use super::drive::SimDrive;
 use crate::frame::RawFrame;
+use crate::model::{SimDrive, SimFrame, SimPortError};
 use crate::CanPort;
 
 /// One bus: transmitters' queues (index 0 is the board), the frame on the
@@ -195,71 +193,6 @@ impl SimNetwork {
                 self.out = out;
             }
         }
-    }
-}
-
-/// A frame of the simulated controller (`embedded-can`), any identifier,
-/// data or remote.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SimFrame {
-    id: Id,
-    remote: bool,
-    dlc: usize,
-    data: [u8; 8],
-}
-
-impl Frame for SimFrame {
-    fn new(id: impl Into<Id>, data: &[u8]) -> Option<Self> {
-        if data.len() > 8 {
-            return None;
-        }
-        let mut d = [0u8; 8];
-        d[..data.len()].copy_from_slice(data);
-        Some(Self { id: id.into(), remote: false, dlc: data.len(), data: d })
-    }
-    fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
-        (dlc <= 8).then(|| Self { id: id.into(), remote: true, dlc, data: [0; 8] })
-    }
-    fn is_extended(&self) -> bool {
-        matches!(self.id, Id::Extended(_))
-    }
-    fn is_remote_frame(&self) -> bool {
-        self.remote
-    }
-    fn id(&self) -> Id {
-        self.id
-    }
-    fn dlc(&self) -> usize {
-        self.dlc
-    }
-    fn data(&self) -> &[u8] {
-        if self.remote {
-            &[]
-        } else {
-            &self.data[..self.dlc]
-        }
-    }
-}
-
-impl SimFrame {
-    /// An extended-identifier data frame (not CANopen's: for tests).
-    pub fn extended(id: u32, data: &[u8]) -> Option<Self> {
-        Self::new(ExtendedId::new(id)?, data)
-    }
-
-    /// A standard data frame.
-    pub fn standard(id: u16, data: &[u8]) -> Option<Self> {
-        Self::new(StandardId::new(id)?, data)
-    }
-}
-
-/// The simulated controller's error: a receive overrun (injected).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SimPortError;
-
-impl embedded_can::Error for SimPortError {
-    fn kind(&self) -> ErrorKind {
-        ErrorKind::Overrun
     }
 }
 

@@ -6,6 +6,7 @@
 //! ([`SimDrive::set_position`]) and takes the torque
 //! ([`SimDrive::torque_nm`]) and the brake ([`SimDrive::brake_engaged`]).
 
+use super::FrameSink;
 use crate::cia402::DriveState;
 use crate::frame::RawFrame;
 
@@ -211,7 +212,7 @@ impl SimDrive {
     }
 
     /// Powers the drive at `now_ns`: its boot-up, then pre-operational.
-    pub fn power_on(&mut self, now_ns: u64, out: &mut Vec<RawFrame>) {
+    pub fn power_on(&mut self, now_ns: u64, out: &mut impl FrameSink) {
         self.reset_communication();
         self.state = DriveState::SwitchOnDisabled;
         self.boot(now_ns, out);
@@ -224,7 +225,7 @@ impl SimDrive {
         self.sent_status = None;
     }
 
-    fn boot(&mut self, now_ns: u64, out: &mut Vec<RawFrame>) {
+    fn boot(&mut self, now_ns: u64, out: &mut impl FrameSink) {
         self.leave_operational();
         self.nmt = Nmt::PreOperational;
         self.last_heartbeat_ns = now_ns;
@@ -236,12 +237,12 @@ impl SimDrive {
     /// A fault of the drive (over-current, over-temperature, ...): the
     /// state machine to "fault", an EMCY with `code`, the statusword sent
     /// on change.
-    pub fn fail(&mut self, code: u16, out: &mut Vec<RawFrame>) {
+    pub fn fail(&mut self, code: u16, out: &mut impl FrameSink) {
         self.state = DriveState::Fault;
         self.emcy(code, out);
     }
 
-    fn emcy(&mut self, code: u16, out: &mut Vec<RawFrame>) {
+    fn emcy(&mut self, code: u16, out: &mut impl FrameSink) {
         if self.faults.silent || matches!(self.nmt, Nmt::Initialising | Nmt::Stopped) {
             return;
         }
@@ -264,7 +265,7 @@ impl SimDrive {
 
     /// Timed frames at `now_ns`: the heartbeat every producer time, the
     /// statusword TPDO by its event timer.
-    pub fn tick(&mut self, now_ns: u64, out: &mut Vec<RawFrame>) {
+    pub fn tick(&mut self, now_ns: u64, out: &mut impl FrameSink) {
         self.now_ns = now_ns;
         self.note_state();
         if self.nmt == Nmt::Initialising {
@@ -313,7 +314,7 @@ impl SimDrive {
     }
 
     /// A frame on the bus, delivered at `now_ns`; answers into `out`.
-    pub fn receive(&mut self, frame: &RawFrame, now_ns: u64, out: &mut Vec<RawFrame>) {
+    pub fn receive(&mut self, frame: &RawFrame, now_ns: u64, out: &mut impl FrameSink) {
         self.now_ns = now_ns;
         if self.faults.silent || self.nmt == Nmt::Initialising {
             return;
@@ -357,7 +358,7 @@ impl SimDrive {
         self.tick(now_ns, out);
     }
 
-    fn nmt_command(&mut self, command: u8, now_ns: u64, out: &mut Vec<RawFrame>) {
+    fn nmt_command(&mut self, command: u8, now_ns: u64, out: &mut impl FrameSink) {
         match command {
             0x01 => self.nmt = Nmt::Operational,
             0x02 => {
@@ -388,7 +389,7 @@ impl SimDrive {
         }
     }
 
-    fn sync(&mut self, now_ns: u64, out: &mut Vec<RawFrame>) {
+    fn sync(&mut self, now_ns: u64, out: &mut impl FrameSink) {
         self.syncs += 1;
         self.last_sync_ns = now_ns;
         for k in 0..2 {
@@ -404,7 +405,7 @@ impl SimDrive {
         }
     }
 
-    fn send_tpdo(&mut self, k: usize, now_ns: u64, out: &mut Vec<RawFrame>) {
+    fn send_tpdo(&mut self, k: usize, now_ns: u64, out: &mut impl FrameSink) {
         let t = self.tpdo[k];
         let mut data = [0u8; 8];
         let mut len = 0;
@@ -428,7 +429,7 @@ impl SimDrive {
         out.push(RawFrame::new((t.cob & 0x7FF) as u16, &data[..len]));
     }
 
-    fn rpdo_data(&mut self, k: usize, data: &[u8], out: &mut Vec<RawFrame>) {
+    fn rpdo_data(&mut self, k: usize, data: &[u8], out: &mut impl FrameSink) {
         let p = self.rpdo[k];
         let mut at = 0;
         for m in &p.map[..usize::from(p.count.min(4))] {
@@ -451,7 +452,7 @@ impl SimDrive {
     }
 
     /// The device state machine on a controlword (CiA 402 transitions 2-16).
-    fn control(&mut self, cw: u16, _out: &mut Vec<RawFrame>) {
+    fn control(&mut self, cw: u16, _out: &mut impl FrameSink) {
         let previous = self.controlword;
         self.controlword = cw;
         if self.faults.stuck_state {
