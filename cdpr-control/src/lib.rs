@@ -15,6 +15,9 @@
 //!   setpoint per cycle out (what the link's budget allows);
 //! * [`drives`]: the winch trait (torques and brakes out, encoder
 //!   readings in), with an embedded-hal 1.0 PWM adapter;
+//! * [`quadrature`]: 16-bit quadrature counters extended to 32-bit counts
+//!   and a speed, and the direct path (`DirectDrives`: PWM amplifiers and a
+//!   counter per cable) beside the CAN drives of `canopen-drives`;
 //! * [`encoder`]: encoder counts to cable lengths, and the homing offsets;
 //! * [`estimator`]: the pose and twist estimate from the cable lengths (a
 //!   Gauss-Newton step of the forward kinematics each cycle);
@@ -38,6 +41,7 @@ pub mod estimator;
 pub mod feedback;
 pub mod link;
 pub mod point_buffer;
+pub mod quadrature;
 pub mod robot;
 pub mod setpoint;
 pub mod stats;

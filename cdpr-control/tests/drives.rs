@@ -88,3 +88,78 @@ fn pin_errors_are_reported() {
     assert_eq!(drives.apply(&[0.1; 8]), Err(PwmDriveError::Direction(3)));
     assert_eq!(drives.set_brakes(true), Err(PwmDriveError::Brake));
 }
+
+mod quadrature {
+    use super::{Channel, Pin};
+    use cdpr_control::drives::PwmDrives;
+    use cdpr_control::quadrature::{DirectDriveError, DirectDrives, EncoderCounter, Extender};
+    use cdpr_control::{WinchDrives, WinchReading};
+    use std::cell::RefCell;
+    use std::rc::Rc;
+
+    /// A counter the test sets (`None`: unreadable).
+    #[derive(Clone, Default)]
+    struct Counter(Rc<RefCell<Option<u16>>>);
+
+    impl EncoderCounter for Counter {
+        type Error = ();
+        fn count(&mut self) -> Result<u16, ()> {
+            self.0.borrow().ok_or(())
+        }
+    }
+
+    /// The extension against a 64-bit reference count, over random walks
+    /// that wrap the 16-bit counter many times.
+    #[test]
+    fn the_extension_follows_a_wide_count_through_the_wraps() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut reached = 0;
+        for walk in 0..200 {
+            let mut truth: i64 = i64::from(walk * 997 % 65_536) - 32_768;
+            let mut e = Extender::new();
+            let first = e.update(truth as u16, 1000);
+            let base = i64::from(first.counts) - truth;
+            for _ in 0..500 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                // Steps of up to +-30 000 counts a read (below the 32 767 limit).
+                let step = (state % 60_001) as i64 - 30_000;
+                truth += step;
+                let r = e.update(truth as u16, 1000);
+                assert_eq!(i64::from(r.counts), (truth + base) as i32 as i64, "walk {walk}");
+                assert_eq!(i64::from(r.counts_per_second), step * 1000);
+                reached += 1;
+            }
+        }
+        assert_eq!(reached, 100_000);
+    }
+
+    #[test]
+    fn direct_drives_read_every_counter_and_name_the_one_that_fails() {
+        let channels: [Channel; 8] = Default::default();
+        let directions: [Pin; 8] = Default::default();
+        let counters: [Counter; 8] = Default::default();
+        for (i, c) in counters.iter().enumerate() {
+            *c.0.borrow_mut() = Some((65_530 + i as u32) as u16);
+        }
+        let pwm = PwmDrives::new(channels.clone(), directions, Pin::default(), 2.5);
+        let mut drives = DirectDrives::new(pwm, counters.clone(), 1000);
+        let mut r = [WinchReading::default(); 8];
+        drives.read(&mut r).unwrap();
+        assert_eq!(r[0].counts, -6);
+        // Counter 3 passes 0xFFFF: +20 counts, no jump.
+        *counters[3].0.borrow_mut() = Some(((65_530u32 + 3 + 20) % 65_536) as u16);
+        drives.read(&mut r).unwrap();
+        assert_eq!((r[3].counts, r[3].counts_per_second), (-3 + 20, 20_000));
+        // An unreadable counter is named; the others are still read.
+        *counters[5].0.borrow_mut() = None;
+        *counters[6].0.borrow_mut() = Some(65_540u32 as u16);
+        assert_eq!(drives.read(&mut r), Err(DirectDriveError::Counter(5)));
+        assert_eq!(drives.failed_drive(&DirectDriveError::Counter(5)), Some(5));
+        assert_eq!(r[6].counts, 4, "counter 6 read: from 0 (65 536) to 4");
+        // Torques reach the PWM.
+        drives.apply(&[1.25; 8]).unwrap();
+        assert_eq!(*channels[0].0.borrow(), Some(500));
+    }
+}
