@@ -92,6 +92,10 @@ pub fn telemetry_header() -> Vec<String> {
             "homed",
             "residual",
             "feedback_scale",
+            "unreadable_drive",
+            "drive_fault_drive",
+            "drive_fault_cause",
+            "drive_fault_code",
         ]
         .iter()
         .map(|s| s.to_string()),
@@ -144,6 +148,10 @@ pub fn telemetry_row(host_time: f64, t: &Telemetry) -> Vec<String> {
         u8::from(t.homed).to_string(),
         if t.residual.is_finite() { format!("{}", t.residual) } else { String::new() },
         t.feedback_scale.to_string(),
+        t.unreadable_drive.map_or(String::new(), |d| d.to_string()),
+        t.drive_fault.map_or(String::new(), |f| f.drive.to_string()),
+        t.drive_fault.map_or(String::new(), |f| f.cause.name().to_string()),
+        t.drive_fault.map_or(String::new(), |f| format!("{:#x}", f.code)),
     ]);
     r
 }
@@ -213,10 +221,17 @@ impl Observer for Watch<'_> {
 pub fn status_line(t: &Telemetry, p: Progress, lo: f32, hi: f32) -> String {
     let c = &t.counters;
     let rejected = rejected_total(c);
+    // A drive's fault names the drive (1-based, as the robot file's cables), the cause and its code.
+    let reason = match t.drive_fault {
+        Some(f) if t.reason == cdpr_control::protocol::Reason::Drive => {
+            format!("drive {} {} {:#x}", u32::from(f.drive) + 1, f.cause.name(), f.code)
+        }
+        _ => t.reason.name().to_string(),
+    };
     format!(
         "{:<8} {:<13} {:>6.2}/{:.2} s  points {}/{}  buffer {:>2} ({:>3} ms)  tensions {:.1}..{:.1} N  link: {} ok, {} rejected ({}), {} dropped",
         t.state.name(),
-        t.reason.name(),
+        reason,
         f64::from(p.played_ms) / 1000.0,
         f64::from(p.end_ms) / 1000.0,
         p.sent,
