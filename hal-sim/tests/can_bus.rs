@@ -35,13 +35,18 @@ fn report(name: &str, f: &Figures) {
 #[test]
 fn the_hold_and_the_loop_keep_their_bounds_on_the_can_buses() {
     let config = Config::can();
-    let s = scenario("hold-centre");
-    let o = run(&s, &config).unwrap();
-    let f = figures(&o, 0.0);
-    report(&s.name, &f);
-    assert_eq!(states(&o), vec![(State::Enabled, Reason::None, Reason::None)]);
-    assert!(f.position_error < 1.0e-3 && f.rotation_error < 0.1f64.to_radians(), "{f:?}");
-    assert!(o.rows.iter().filter(|r| r.state == State::Enabled).all(|r| r.drive_brakes == Some(0)));
+    // The four static holds, both schemes: the bounds of the wired runs.
+    for scheme in [Scheme::TaskSpace, Scheme::JointSpace] {
+        for (name, _) in hal_sim::scenario::HOLD_POSES {
+            let s = scenario(name).with_scheme(scheme);
+            let o = run(&s, &config).unwrap();
+            let f = figures(&o, 0.0);
+            report(&s.name, &f);
+            assert_eq!(states(&o), vec![(State::Enabled, Reason::None, Reason::None)], "{}", s.name);
+            assert!(f.position_error < 1.0e-3 && f.rotation_error < 0.1f64.to_radians(), "{}: {f:?}", s.name);
+            assert!(o.rows.iter().filter(|r| r.state == State::Enabled).all(|r| r.drive_brakes == Some(0)));
+        }
+    }
 
     // Joint space: the loop completes within the direct run's bounds
     // (measured 4.10 mm, 0.78 deg, tensions from 2.9 N); the residual is
