@@ -394,6 +394,20 @@ fn garbage_frames_are_counted_and_change_nothing() {
 }
 
 #[test]
+fn an_sdo_answer_out_of_sequence_at_start_up_is_a_configuration_fault() {
+    // A download-segment answer with the toggle bit (0x30) where the
+    // expedited download's 0x60 belongs: the transfer is refused, typed.
+    let mut b = Bench::new();
+    let port = b.layer.ports().0.inject.clone();
+    b.until(20, |b, _| matches!(b.layer.node(0).unwrap().stage(), Stage::Configure(s) if s >= 2)).unwrap();
+    port.borrow_mut().push_back(SimFrame::standard(0x581, &[0x30, 0, 0, 0, 0, 0, 0, 0]).unwrap());
+    let (_, f) = b.fault(5);
+    assert_eq!((f.drive, f.cause), (0, DriveFaultCause::Configuration), "{f:?}");
+    // The other drives went on.
+    b.until(100, |b, _| b.layer.node(1).unwrap().ready()).expect("drive 1 up");
+}
+
+#[test]
 fn the_emergency_frames_quick_stop_then_zero_then_sync_then_nmt() {
     let mut out = [RawFrame::new(0, &[]); 16];
     let n = emergency_frames(&configs(), 1, &mut out);
