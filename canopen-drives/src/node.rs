@@ -96,7 +96,6 @@ pub struct Node {
     permille_per_nm: f32,
     permille_max: f32,
     timing: Timing,
-    steps: [ConfigStep; CONFIG_STEPS],
     stage: Stage,
     /// The cycle the stage, or the pending SDO, started.
     since: u32,
@@ -131,7 +130,6 @@ impl Node {
         Self {
             permille_per_nm: config.permille_per_nm(),
             permille_max: f32::from(config.max_torque_permille()),
-            steps: configuration(&config, &timing),
             sdo: NodeId::new(config.node).ok().map(SdoClient::new),
             config,
             timing,
@@ -160,6 +158,13 @@ impl Node {
     /// The drive's configuration.
     pub fn config(&self) -> &DriveConfig {
         &self.config
+    }
+
+    /// Configuration step `i` (built when asked for: start-up only, and
+    /// the node stays small: eight of them live on the board).
+    fn config_step(&self, i: u8) -> Option<ConfigStep> {
+        let steps: [ConfigStep; CONFIG_STEPS] = configuration(&self.config, &self.timing);
+        steps.get(usize::from(i)).copied()
     }
 
     /// The layer's timing.
@@ -276,7 +281,7 @@ impl Node {
         self.sdo_pending = false;
         match client.on_response(&frame.data) {
             SdoEvent::Complete(value) => {
-                if self.steps.get(usize::from(step)) == Some(&ConfigStep::CheckRatedTorque) {
+                if self.config_step(step) == Some(ConfigStep::CheckRatedTorque) {
                     let expected = self.config.rated_torque * 1000.0;
                     let matches = match value {
                         Some(Value::Unsigned32(mnm)) => {
@@ -345,7 +350,7 @@ impl Node {
         match self.stage {
             Stage::WaitBoot if elapsed > self.timing.boot_cycles => self.latch(DriveFaultCause::NoAnswer, 0),
             Stage::WaitBoot => {}
-            Stage::Configure(step) => match self.steps.get(usize::from(step)).copied() {
+            Stage::Configure(step) => match self.config_step(step) {
                 None => {
                     out.push(RawFrame::new(NMT, &[0x01, self.config.node]));
                     self.enter(Stage::Start, now);

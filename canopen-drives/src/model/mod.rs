@@ -102,7 +102,7 @@ impl embedded_can::Error for SimPortError {
 }
 
 /// Frames a [`Ring`] holds.
-pub const RING: usize = 64;
+pub const RING: usize = 32;
 
 /// A bounded FIFO of frames (no allocation).
 #[derive(Debug, Clone, Copy)]
