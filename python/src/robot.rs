@@ -418,7 +418,8 @@ impl Robot {
         match row.pose {
             Ok(pose) => array_out(py, pose, &[self.n()]),
             Err(e) => {
-                let residual = row.residual.map(|r| format!(" (worst residual {r:e} m)")).unwrap_or_default();
+                let residual =
+                    row.residual.map(|r| format!(" (worst residual {r:.3e} m)")).unwrap_or_default();
                 Err(forward_error(py, e, &format!("forward kinematics{residual}")))
             }
         }
