@@ -52,13 +52,14 @@ impl Rows {
 /// (`<U20`, the longest word's length), from each row's own word.
 fn status_array<'py>(py: Python<'py>, words: &[&'static str]) -> PyResult<Bound<'py, PyAny>> {
     let mut table: Vec<&'static str> = Vec::new();
-    let codes: Vec<usize> = words
+    // `isize`: numpy's index type (intp), which `take` accepts on every numpy.
+    let codes: Vec<isize> = words
         .iter()
         .map(|w| match table.iter().position(|t| t == w) {
-            Some(i) => i,
+            Some(i) => i as isize,
             None => {
                 table.push(w);
-                table.len() - 1
+                table.len() as isize - 1
             }
         })
         .collect();

@@ -64,5 +64,5 @@ def test_the_figure_is_written(example, result, tmp_path):
 
 
 def test_without_the_pd_the_bound_is_broken(example):
-    open_loop = example.run(hold=1.0, loop=8.0, rest=0.0, kp=0.0, kd=0.0)
+    open_loop = example.run(hold=1.0, loop=0.0, rest=0.0, kp=0.0, kd=0.0)
     assert open_loop.position_error.max() > 10 * POSITION_BOUND
