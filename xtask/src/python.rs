@@ -9,7 +9,8 @@
 //!    is unchanged (a stamp in the environment records it), remade when it
 //!    changes.
 //! 2. clippy on the package's crate (`cdpr-py`, not a default member, so
-//!    the host clippy does not see it), `-D warnings`.
+//!    the host clippy does not see it), `-D warnings` (while pip works on
+//!    the environment, in a thread).
 //! 3. The `cdpr` CLI in the workspace's `wheel` profile (release without
 //!    fat LTO), which the tests compare the package with (`CDPR_CLI`).
 //! 4. The wheel: `maturin build` in the same profile
@@ -49,32 +50,34 @@ pub fn test() -> Tally {
     let python = venv.join("bin").join("python");
     let cargo = env!("CARGO");
 
-    let env = match environment(&venv, &python) {
-        Ok(()) => {
-            println!("==> python: virtual environment {}: ok", venv.display());
-            tally.passed += 1;
-            // Absolute (build scripts run elsewhere), the venv's link kept.
-            std::path::absolute(&python).unwrap_or_else(|_| python.clone()).into_os_string()
-        }
-        Err(e) => {
-            println!("==> python: virtual environment: FAILED ({e})");
-            tally.failed += 1;
-            return tally;
-        }
+    // pip downloads and unpacks while cargo compiles: the environment is
+    // only needed from maturin on.
+    let making = {
+        let (venv, python) = (venv.clone(), python.clone());
+        std::thread::spawn(move || environment(&venv, &python))
     };
-    let pyo3: [(&str, &OsStr); 1] = [("PYO3_PYTHON", &env)];
+    // clippy and the CLI need no environment: PyO3's build script asks the
+    // system's python3 for its version (the crate is abi3 anyway).
+    let pyo3: [(&str, &OsStr); 1] = [("PYO3_PYTHON", OsStr::new("python3"))];
     let clippy = ["clippy", "-p", "cdpr-py", "--all-targets", "--", "-D", "warnings"];
     let result = run_step_with(cargo, &clippy, &pyo3);
     report("clippy (python package, cdpr-py)", &result, &mut tally);
-
-    // The CLI first, with the features resolved for the package's crate
-    // too (`-p cdpr-py`, only the `cdpr` binary built): the crates both
-    // need are then compiled once, and maturin's build reuses them.
+    // The CLI with the features resolved for the package's crate too
+    // (`-p cdpr-py`, only the `cdpr` binary built): the crates both need are
+    // then compiled once, and maturin's build reuses them.
     tally.add(check(
         "python: the cdpr CLI for the comparisons",
         cargo,
         &["build", "--profile", "wheel", "-p", "cdpr", "-p", "cdpr-py", "--bin", "cdpr"],
     ));
+
+    let made = making.join().unwrap_or_else(|_| Err("the set-up thread panicked".into()));
+    report(&format!("python: virtual environment {}", venv.display()), &made, &mut tally);
+    if made.is_err() {
+        println!("==> python: the wheel and pytest: not run (no environment)");
+        tally.failed += 1;
+        return tally;
+    }
     let wheel = build_wheel(&venv, &python, &target);
     report(
         "python: the wheel (maturin, abi3), installed",
