@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::SVector;
 use robot_file::{RobotFile, RobotFileError, RobotFileErrorKind};
-use tension_core::{Error, ForwardError, ForwardSettings, Method, Motion, Robot, RobotKind, TensionSolver};
+use tension_core::{
+    Error, ForwardError, ForwardSettings, Method, Motion, Pose, Robot, RobotKind, TensionSolver, Winch,
+};
 
 use crate::CliError;
 
@@ -177,6 +179,16 @@ pub trait Model: Send + Sync {
     /// The forward kinematics of `m` lengths, warm-started from `warm`
     /// (`n` numbers) with [`ForwardSettings::for_robot`]'s settings.
     fn forward(&self, lengths: &[f64], warm: Option<&[f64]>) -> ForwardRow;
+    /// The wrench matrix `W` at a pose (`n` numbers), row by row (`n` rows
+    /// of `m`) into `out` (`n m` numbers).
+    fn wrench_matrix(&self, pose: &[f64], out: &mut [f64]) -> Result<(), Error>;
+    /// The cable lengths `|l_i|` at a pose into `out` (`m` numbers).
+    fn cable_lengths(&self, pose: &[f64], out: &mut [f64]) -> Result<(), Error>;
+    /// The wrench the cables must produce for a query, `f = -w_e` (gravity,
+    /// the extra wrench, the d'Alembert wrench), into `out` (`n` numbers).
+    fn required_wrench(&self, query: &Query<'_>, out: &mut [f64]) -> Result<(), Error>;
+    /// The winch data (for motor torques), when the robot file has it.
+    fn winch(&self) -> Option<Winch<f64>>;
 }
 
 /// One row of `cdpr forward`: the pose or why not, and the worst residual
@@ -240,29 +252,78 @@ impl<const N: usize, const M: usize> Model for Shaped<N, M> {
             Err(f) => ForwardRow { pose: Err(f.error), residual: f.closest.map(|c| c.worst) },
         }
     }
+    fn wrench_matrix(&self, pose: &[f64], out: &mut [f64]) -> Result<(), Error> {
+        let w = self.robot.wrench_matrix(&pose_of::<N>(pose)?)?;
+        if out.len() != N * M {
+            return Err(Error::UnsupportedShape);
+        }
+        for (r, row) in out.chunks_exact_mut(M).enumerate() {
+            for (c, x) in row.iter_mut().enumerate() {
+                *x = w[(r, c)];
+            }
+        }
+        Ok(())
+    }
+    fn cable_lengths(&self, pose: &[f64], out: &mut [f64]) -> Result<(), Error> {
+        let cables = self.robot.cables(&pose_of::<N>(pose)?)?;
+        if out.len() != M {
+            return Err(Error::UnsupportedShape);
+        }
+        out.copy_from_slice(cables.lengths.as_slice());
+        Ok(())
+    }
+    fn required_wrench(&self, query: &Query<'_>, out: &mut [f64]) -> Result<(), Error> {
+        let (pose, extra, motion) = query_parts(&self.robot, query)?;
+        let f = self.robot.required_wrench(&pose, &extra, motion.as_ref())?;
+        if out.len() != N {
+            return Err(Error::UnsupportedShape);
+        }
+        out.copy_from_slice(f.as_slice());
+        Ok(())
+    }
+    fn winch(&self) -> Option<Winch<f64>> {
+        self.robot.winch().copied()
+    }
+}
+
+/// A pose of `N` numbers from a slice ([`Error::UnsupportedShape`] for
+/// another length).
+fn pose_of<const N: usize>(pose: &[f64]) -> Result<Pose<f64, N>, Error> {
+    if pose.len() != N {
+        return Err(Error::UnsupportedShape);
+    }
+    Ok(SVector::<f64, N>::from_column_slice(pose))
+}
+
+/// A query's pose, extra wrench and motion, as `tension-core` takes them.
+type QueryParts<const N: usize> = (Pose<f64, N>, SVector<f64, N>, Option<Motion<f64>>);
+
+/// A query's pose, extra wrench (zero when absent) and motion (from the
+/// pose's derivatives, when given), each checked for its length.
+fn query_parts<const N: usize, const M: usize>(
+    robot: &Robot<f64, N, M>,
+    q: &Query<'_>,
+) -> Result<QueryParts<N>, Error> {
+    let pose = pose_of::<N>(q.pose)?;
+    let extra = match q.extra {
+        Some(e) => pose_of::<N>(e)?,
+        None => SVector::zeros(),
+    };
+    let motion = match q.motion {
+        Some((v, a)) => {
+            Some(Motion::from_pose_derivatives(robot.kind(), &pose, &pose_of::<N>(v)?, &pose_of::<N>(a)?)?)
+        }
+        None => None,
+    };
+    Ok((pose, extra, motion))
 }
 
 impl<const N: usize, const M: usize> ShapeSolver for ShapedSolver<N, M> {
     fn solve(&mut self, q: &Query<'_>, out: &mut [f64]) -> Result<f64, Error> {
-        if q.pose.len() != N || out.len() != M {
+        if out.len() != M {
             return Err(Error::UnsupportedShape);
         }
-        let pose = SVector::<f64, N>::from_column_slice(q.pose);
-        let extra = match q.extra {
-            Some(e) if e.len() == N => SVector::<f64, N>::from_column_slice(e),
-            Some(_) => return Err(Error::UnsupportedShape),
-            None => SVector::zeros(),
-        };
-        let motion = match q.motion {
-            Some((v, a)) if v.len() == N && a.len() == N => Some(Motion::from_pose_derivatives(
-                self.robot.kind(),
-                &pose,
-                &SVector::<f64, N>::from_column_slice(v),
-                &SVector::<f64, N>::from_column_slice(a),
-            )?),
-            Some(_) => return Err(Error::UnsupportedShape),
-            None => None,
-        };
+        let (pose, extra, motion) = query_parts(&self.robot, q)?;
         let w = self.robot.wrench_matrix(&pose)?;
         let f = self.robot.required_wrench(&pose, &extra, motion.as_ref())?;
         let sol = self.solver.solve(&w, &f, self.robot.limits())?;
@@ -344,6 +405,29 @@ mod tests {
             let loaded = LoadedRobot { path: PathBuf::from("t.toml"), file };
             let model = loaded.model().unwrap();
             assert_eq!((model.dof(), model.cables()), (n, m));
+            // The geometry through the same dispatch: a pose below the
+            // anchors' centre, every cable's force part a unit vector, the
+            // lengths those of the anchors, gravity's wrench -m g.
+            let mut pose = vec![0.0; n];
+            if n == 6 {
+                pose[2] = 0.5;
+            }
+            let (mut w, mut lengths, mut f) = (vec![0.0; n * m], vec![0.0; m], vec![0.0; n]);
+            model.wrench_matrix(&pose, &mut w).unwrap();
+            model.cable_lengths(&pose, &mut lengths).unwrap();
+            model.required_wrench(&Query::pose(&pose), &mut f).unwrap();
+            let force_rows = if n == 6 { 3 } else { 2 };
+            for (i, length) in lengths.iter().enumerate() {
+                let norm: f64 = (0..force_rows).map(|r| w[r * m + i] * w[r * m + i]).sum::<f64>().sqrt();
+                assert!((norm - 1.0).abs() < 1e-12, "{n}x{m} cable {i}: |u| = {norm}");
+                let want = if n == 6 { 1.25f64.sqrt() } else { 1.0 };
+                assert!((length - want).abs() < 1e-12, "{n}x{m} cable {i}: length {length}");
+            }
+            if n == 6 {
+                assert!((f[2] - 9.81).abs() < 1e-12, "{f:?}");
+            }
+            assert!(model.wrench_matrix(&pose[1..], &mut w).is_err());
+            assert!(model.winch().is_none());
         }
     }
 }

@@ -97,24 +97,33 @@ pub fn parse_csv(path: &Path, text: &str) -> Result<RawTable, CliError> {
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
     // A record's position is where the reader started on it, before the
-    // empty lines it skips: its line is that of its first other byte.
-    let line_at = |p: &csv::Position| {
-        let bytes = text.as_bytes();
-        let start = p.byte() as usize;
+    // empty lines it skips: its line is that of its first other byte. The
+    // records come in file order, so the newlines are counted on from the
+    // previous record's (linear in the file, not quadratic).
+    let bytes = text.as_bytes();
+    let mut counted = (0usize, 0usize); // (offset, newlines before it)
+    let mut line_at = |p: &csv::Position| {
+        let start = (p.byte() as usize).min(bytes.len());
         let skipped = bytes[start..].iter().take_while(|&&b| b == b'\n' || b == b'\r').count();
-        bytes[..start + skipped].iter().filter(|&&b| b == b'\n').count() + 1
+        let target = start + skipped;
+        if target < counted.0 {
+            counted = (0, 0);
+        }
+        counted.1 += bytes[counted.0..target].iter().filter(|&&b| b == b'\n').count();
+        counted.0 = target;
+        counted.1 + 1
     };
     let mut lines = Vec::new();
     for record in reader.records() {
         let record = record.map_err(|e| {
-            let line = e.position().map(line_at);
+            let line = e.position().map(&mut line_at);
             CliError::at(path, line, None, &e.to_string())
         })?;
         // A line of blanks is one empty field once trimmed.
         if record.len() == 1 && record[0].is_empty() {
             continue;
         }
-        let line = record.position().map_or(0, line_at);
+        let line = record.position().map_or(0, &mut line_at);
         lines.push(RawRow { line, fields: record.iter().map(String::from).collect() });
     }
     let mut lines = lines.into_iter();
@@ -337,5 +346,28 @@ mod tests {
         let e = parse("time,x,y\n1,nan,0\n", RobotKind::Planar2, TimeColumn::Required).unwrap_err();
         assert!(e.message.contains("not a finite number"));
         assert!(parse("", RobotKind::Planar2, TimeColumn::Optional).is_err());
+    }
+
+    #[test]
+    fn lines_of_a_long_table_with_blank_lines() {
+        // Every line counted from the previous record's: blank lines, CRLF
+        // and an error deep in the file still name the right line.
+        let mut text = String::from("x,y\r\n");
+        let mut want = vec![];
+        let mut line = 2;
+        for i in 0..3000 {
+            if i % 7 == 0 {
+                text.push_str("\n \r\n");
+                line += 2;
+            }
+            text.push_str(&format!("{i},1\r\n"));
+            want.push(line);
+            line += 1;
+        }
+        let t = parse(&text, RobotKind::Planar2, TimeColumn::Optional).unwrap();
+        assert_eq!(t.rows.iter().map(|r| r.line).collect::<Vec<_>>(), want);
+        text.push_str("\n1,oops\n");
+        let e = parse(&text, RobotKind::Planar2, TimeColumn::Optional).unwrap_err();
+        assert!(e.message.starts_with(&format!("p.csv, line {}, column 2 (y)", line + 1)), "{}", e.message);
     }
 }

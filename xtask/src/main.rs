@@ -7,6 +7,8 @@
 //!   lints, the `no_std` build, the host tests, the firmware under QEMU), and
 //!   `N passed, N failed` last (exit code 1 if any failed).
 //! * `cargo xtask e2e`: only the end-to-end serial test (part of `test`).
+//! * `cargo xtask python`: only the Python package's checks and tests
+//!   (part of `test`; [`python`]).
 //! * `cargo xtask qemu [--robot FILE] [--tcp PORT]`: the product firmware
 //!   for that robot in QEMU, in real time, its USART1 on a local TCP port
 //!   (default 4444) for `cdpr stream --tcp 127.0.0.1:PORT`, until Ctrl-C.
@@ -23,13 +25,14 @@ mod e2e;
 mod e2e_stream;
 mod elf;
 mod firmware;
+mod python;
 
 use std::process::exit;
 
 use checks::{cargo_test, check, Tally};
 use firmware::TARGET;
 
-const USAGE: &str = "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE] | cargo xtask qemu [--robot FILE] [--tcp PORT]";
+const USAGE: &str = "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE] | cargo xtask python | cargo xtask qemu [--robot FILE] [--tcp PORT]";
 
 /// The TCP port of `cargo xtask qemu` unless `--tcp` says otherwise.
 const QEMU_PORT: u16 = 4444;
@@ -55,6 +58,7 @@ fn main() {
     match (task.as_str(), robot) {
         ("run", robot) => run(robot.as_deref().unwrap_or(firmware::DEFAULT_ROBOT)),
         ("test", None) => test(),
+        ("python", None) => python_only(),
         ("e2e", robot) => e2e(robot.as_deref().unwrap_or(firmware::DEFAULT_ROBOT)),
         _ => {
             eprintln!("{USAGE}");
@@ -166,6 +170,13 @@ fn e2e(robot: &str) {
     exit(if tally.failed == 0 { 0 } else { 1 });
 }
 
+/// Only the Python package's part of `test`, for working on it.
+fn python_only() {
+    let tally = python::test();
+    println!("{} passed, {} failed", tally.passed, tally.failed);
+    exit(if tally.failed == 0 { 0 } else { 1 });
+}
+
 fn test() {
     let mut tally = Tally::default();
     if let Err(e) = firmware::setup() {
@@ -203,6 +214,7 @@ fn test() {
         &["build", "--release", "-p", "tension-core", "--target", TARGET],
     ));
     tally.add(cargo_test(&[]));
+    tally.add(python::test());
     match firmware::test() {
         Ok((passed, failed)) => tally.add(Tally { passed, failed }),
         Err(e) => {
