@@ -8,7 +8,10 @@
 //!   quanta), 1 + 11 + 2 quanta a bit, sample point 85.7 %, SJW 1 (CiA 301's
 //!   recommendation is 87.5 %; 85.7 % is the nearest at 14 quanta);
 //! * **Order:** transmit FIFO priority (`TXFP`): the mailboxes go out in
-//!   the order they were filled, so the cycle's SYNC follows its RPDOs;
+//!   the order they were filled, so the cycle's SYNC follows its RPDOs (and
+//!   `bxcan` takes a frame into a mailbox only ahead of lower-priority
+//!   ones, so a cycle's RPDOs go one mailbox at a time, each loaded by the
+//!   previous one's transmit interrupt);
 //!   automatic bus-off management off (a bus-off stays until `ClearFault`
 //!   restarts the drives: the layer reports it as `bus-off`);
 //! * **Queues:** the control task's frames go into a queue the CAN TX
@@ -133,18 +136,24 @@ impl<C: Controller> CanPort for BoardPort<C> {
 
 impl<C: Controller> CanIrq<C> {
     /// The transmit interrupt (a mailbox emptied, or the control task
-    /// queued frames): loads the free mailboxes from the queue, in order.
+    /// queued frames): loads the queue's frames into free mailboxes, in
+    /// order. `bxcan` refuses a frame whose identifier is not below every
+    /// pending one's (it keeps priority order for controllers without
+    /// `TXFP`): such a frame stays at the queue's head until the mailbox
+    /// ahead of it has gone out (the next interrupt), so nothing is lost and
+    /// the order holds.
     pub fn on_transmit(&mut self) {
-        self.can.clear_request_completed_flag();
+        self.can.clear_tx_interrupt();
         // At most the three mailboxes per call: bounded.
         for _ in 0..3 {
-            let tsr = C::registers().tsr().read();
-            if !(tsr.tme0().bit_is_set() || tsr.tme1().bit_is_set() || tsr.tme2().bit_is_set()) {
-                break;
+            let Some(frame) = self.tx.peek() else { break };
+            match self.can.transmit(frame) {
+                Ok(_) => {
+                    let _ = self.tx.dequeue();
+                }
+                Err(nb::Error::WouldBlock) => break,
+                Err(nb::Error::Other(never)) => match never {},
             }
-            let Some(frame) = self.tx.dequeue() else { break };
-            // An empty mailbox takes it: nothing is dequeued.
-            let _ = self.can.transmit(&frame);
         }
     }
 
