@@ -209,9 +209,8 @@ fn the_speed_comes_from_two_positions_and_survives_a_missed_one() {
 #[test]
 fn a_drive_that_never_boots_keeps_the_board_out_and_is_named() {
     let mut b = Bench::new();
-    b.rig.drive(5).faults.silent = true;
-    // Its power-on boot-up never went out either (cable 5 is CAN2's second).
-    b.rig.net(1).bus.drop_queue(2);
+    // Its power-on boot-up never goes out either.
+    b.rig.cut_off(5);
     for _ in 0..300 {
         b.cycle().unwrap_err();
     }
@@ -251,14 +250,7 @@ fn sdo_timeouts_and_aborts_are_configuration_faults() {
 #[test]
 fn an_emcy_mid_operation_faults_and_a_fault_reset_brings_the_drive_back() {
     let mut b = Bench::operating();
-    {
-        let mut out = Vec::new();
-        b.rig.drive(3).fail(0x2310, &mut out);
-        let t = b.rig.now_ns;
-        for f in out {
-            b.rig.net(0).bus.queue(4, t, f);
-        }
-    }
+    b.rig.drive_sends(3, |d, _, out| d.fail(0x2310, out));
     let (took, f) = b.fault(5);
     assert_eq!(f, DriveFault { drive: 3, cause: DriveFaultCause::Emergency, code: 0x2310 });
     // Raised at a cycle's start: its EMCY is on the bus in that cycle and
@@ -314,14 +306,7 @@ fn heartbeats_that_stop_or_say_another_state_are_heartbeat_faults() {
     assert!((150..=252).contains(&took), "{took}");
     // A drive that resets (its boot-up mid-operation).
     let mut b = Bench::operating();
-    {
-        let mut out = Vec::new();
-        b.rig.drive(1).power_on(b.rig.now_ns, &mut out);
-        let t = b.rig.now_ns;
-        for f in out {
-            b.rig.net(0).bus.queue(2, t, f);
-        }
-    }
+    b.rig.drive_sends(1, |d, now, out| d.power_on(now, out));
     let (_, f) = b.fault(5);
     assert_eq!((f.drive, f.cause, f.code), (1, DriveFaultCause::Heartbeat, 0));
 }

@@ -93,19 +93,9 @@ impl CanWinches {
     pub fn inject(&mut self, fault: CanFault) {
         match fault {
             CanFault::DriveFault { cable, code } => {
-                let mut out = Vec::new();
-                self.rig.drive(cable).fail(code, &mut out);
-                let (bus, k) = self.rig.place[cable];
-                let t = self.rig.now_ns;
-                for f in out {
-                    self.rig.net(bus).bus.queue(k + 1, t, f);
-                }
+                self.rig.drive_sends(cable, |d, _, out| d.fail(code, out))
             }
-            CanFault::DropOff { cable } => {
-                self.rig.drive(cable).faults.silent = true;
-                let (bus, k) = self.rig.place[cable];
-                self.rig.net(bus).bus.drop_queue(k + 1);
-            }
+            CanFault::DropOff { cable } => self.rig.cut_off(cable),
             CanFault::BusOff { bus } => self.rig.net(bus).bus_off = true,
         }
     }

@@ -9,6 +9,7 @@ use cdpr_control::CABLES;
 use super::{SimDrive, SimNetwork, SimPort};
 use crate::config::{DriveConfig, Timing};
 use crate::drives::{CanDrives, BUSES};
+use crate::frame::RawFrame;
 
 /// The board's drives on the simulated buses.
 pub type SimCanDrives = CanDrives<SimPort, SimPort>;
@@ -55,6 +56,27 @@ impl SimRig {
     pub fn drive(&self, i: usize) -> RefMut<'_, SimDrive> {
         let (bus, k) = self.place[i];
         RefMut::map(self.nets[bus].borrow_mut(), |n| &mut n.drives[k])
+    }
+
+    /// Cable `i`'s drive does `act` now (a fault, a reset): what it sends
+    /// goes onto its bus at once.
+    pub fn drive_sends(&mut self, i: usize, act: impl FnOnce(&mut SimDrive, u64, &mut Vec<RawFrame>)) {
+        let (bus, k) = self.place[i];
+        let now = self.now_ns;
+        let mut out = Vec::new();
+        act(&mut self.drive(i), now, &mut out);
+        let mut net = self.net(bus);
+        for f in out {
+            net.bus.queue(k + 1, now, f);
+        }
+    }
+
+    /// Cable `i`'s drive drops off its bus: it hears and sends nothing from
+    /// now on, and what it had queued is lost.
+    pub fn cut_off(&mut self, i: usize) {
+        self.drive(i).faults.silent = true;
+        let (bus, k) = self.place[i];
+        self.net(bus).bus.drop_queue(k + 1);
     }
 
     /// Bus `bus`'s network.
