@@ -665,11 +665,22 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
     use cdpr_control::{WinchDrives, WinchReading};
     samples.clear();
     let configs = crate::robot::drive_configs();
-    let mut models: [SimDrive; CABLES] = core::array::from_fn(|i| {
+    // The models in bus order (CAN1's first, `on_can1` of them), each
+    // standing for cable `cable_of[j]`, as the robot file places them.
+    let mut cable_of = [0usize; CABLES];
+    let mut j = 0;
+    for bus in 0..2u8 {
+        for i in (0..CABLES).filter(|&i| configs[i].bus == bus) {
+            cable_of[j] = i;
+            j += 1;
+        }
+    }
+    let on_can1 = configs.iter().filter(|c| c.bus == 0).count();
+    let mut models: [SimDrive; CABLES] = core::array::from_fn(|j| {
         // The drive's 0x6076 as the robot file says (NaN: 0, which fails
         // the start-up check).
         let rated = crate::robot::RATED_TORQUE * 1000.0;
-        SimDrive::new(configs[i].node, if rated.is_finite() { rated as u32 } else { 0 })
+        SimDrive::new(configs[cable_of[j]].node, if rated.is_finite() { rated as u32 } else { 0 })
     });
     let mut layer = CanDrives::new(LoopbackPort::new(), LoopbackPort::new(), configs, Timing::DEFAULT);
     let mut readings = [WinchReading::default(); CABLES];
@@ -678,8 +689,7 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
     let deliver =
         |layer: &mut CanDrives<LoopbackPort, LoopbackPort>, models: &mut [SimDrive; CABLES], t: u64| {
             let (p1, p2) = layer.ports();
-            let (m1, m2) = models.split_at_mut(4);
-            // Cables 1-4 on CAN1, 5-8 on CAN2 (the default split).
+            let (m1, m2) = models.split_at_mut(on_can1);
             p1.deliver(m1, t);
             p2.deliver(m2, t);
         };
@@ -711,7 +721,7 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
         let setpoint = DEMO.script(k);
         let torques = match controller.robot().cables(&setpoint.pose) {
             Ok(c) => {
-                for (i, m) in models.iter_mut().enumerate() {
+                for (m, &i) in models.iter_mut().zip(&cable_of) {
                     m.set_position(scale.counts_of(i, c.lengths[i], 0).unwrap_or(0));
                 }
                 [0.3; CABLES]
