@@ -4,18 +4,13 @@
 //! dropping off its bus and a bus-off mid-motion each end in Fault
 //! `drive` with every brake engaged (`hal-sim/README.md` has the figures).
 
+mod common;
+
 use cdpr_control::feedback::Scheme;
 use cdpr_control::protocol::{DriveFaultCause, Reason, State};
+use common::{scenario, states};
 use hal_sim::output::{figures, Figures};
-use hal_sim::{run, Config, Outcome, Scenario};
-
-fn scenario(name: &str) -> Scenario {
-    Scenario::named(name).unwrap_or_else(|| panic!("no scenario {name}"))
-}
-
-fn states(o: &Outcome) -> Vec<(State, Reason, Reason)> {
-    o.transitions.iter().map(|&(_, s, r, h)| (s, r, h)).collect()
-}
+use hal_sim::{run, Config};
 
 fn report(name: &str, f: &Figures) {
     println!(

@@ -3,20 +3,19 @@
 //! run also writes its CSV table and PNG plot under
 //! `target/tmp/hal-sim/` (`CARGO_TARGET_TMPDIR`).
 
+mod common;
+
 use std::path::PathBuf;
 
 use cdpr_control::feedback::{Gains, Scheme};
 use cdpr_control::protocol::{Reason, State};
+use common::{scenario, states};
 use hal_sim::output::{figures, write, Figures};
 use hal_sim::scenario::HOLD_POSES;
 use hal_sim::{run, Config, Outcome, Scenario};
 
 fn out_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("hal-sim")
-}
-
-fn scenario(name: &str) -> Scenario {
-    Scenario::named(name).unwrap_or_else(|| panic!("no scenario {name}"))
 }
 
 /// Both feedback schemes.
@@ -37,11 +36,6 @@ fn run_and_write(s: &Scenario, config: &Config) -> Outcome {
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
     outcome
-}
-
-/// The state machine's changes, without times.
-fn states(o: &Outcome) -> Vec<(State, Reason, Reason)> {
-    o.transitions.iter().map(|&(_, s, r, h)| (s, r, h)).collect()
 }
 
 fn report(name: &str, f: &Figures) {
