@@ -73,12 +73,18 @@ fn rig() -> (cdpr_control::ControlLoop, FaultyDrives) {
     (control, drives)
 }
 
-#[test]
-fn a_drive_fault_while_enabled_faults_and_names_the_drive_until_cleared() {
+/// [`rig`], Enabled at `POSE` with setpoint 1.
+fn enabled() -> (cdpr_control::ControlLoop, FaultyDrives) {
     let (mut control, mut drives) = rig();
     control.receive(setpoint(1));
     control.receive(HostMessage::Enable);
     assert_eq!(control.step(&NoClock, &mut drives, false).state, State::Enabled);
+    (control, drives)
+}
+
+#[test]
+fn a_drive_fault_while_enabled_faults_and_names_the_drive_until_cleared() {
+    let (mut control, mut drives) = enabled();
     drives.read_fault = Some(OVER_CURRENT);
     control.receive(setpoint(2));
     let r = control.step(&NoClock, &mut drives, false);
@@ -116,10 +122,7 @@ fn a_drive_fault_while_disabled_is_a_fault_too() {
 
 #[test]
 fn a_drive_fault_on_the_write_is_drive_not_output() {
-    let (mut control, mut drives) = rig();
-    control.receive(setpoint(1));
-    control.receive(HostMessage::Enable);
-    assert_eq!(control.step(&NoClock, &mut drives, false).state, State::Enabled);
+    let (mut control, mut drives) = enabled();
     drives.apply_fault = Some(OVER_CURRENT);
     control.receive(setpoint(2));
     let r = control.step(&NoClock, &mut drives, false);
