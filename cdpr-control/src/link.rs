@@ -257,7 +257,35 @@ impl Link {
     /// Takes one received byte in cycle `now`; returns the event of a frame
     /// it completed. Rejected frames are counted in `counters`.
     pub fn receive(&mut self, byte: u8, now: u32, counters: &mut Counters) -> Option<Event> {
-        match self.decoder.push::<HostMessage>(byte)? {
+        if self.take_byte(byte) {
+            self.frame_ended(now, counters)
+        } else {
+            None
+        }
+    }
+
+    /// The per-byte half of [`Link::receive`], kept inline in a receive
+    /// loop: whether `byte` ended a frame, after which
+    /// [`Link::frame_ended`] must be called.
+    #[inline(always)]
+    pub fn take_byte(&mut self, byte: u8) -> bool {
+        self.decoder.push_byte(byte)
+    }
+
+    /// Bytes from `next` up to the end of a frame, at most `limit`
+    /// ([`cdpr_protocol::FrameDecoder::take_bytes`]): how many it took and
+    /// whether the last ended a frame, after which [`Link::frame_ended`]
+    /// must be called.
+    #[inline(always)]
+    pub fn take_bytes(&mut self, next: &mut impl FnMut() -> Option<u8>, limit: usize) -> (usize, bool) {
+        self.decoder.take_bytes(next, limit)
+    }
+
+    /// The per-frame half of [`Link::receive`], after a delimiter: the
+    /// event of the frame it ended, if any, in cycle `now`; rejected frames
+    /// are counted in `counters`.
+    pub fn frame_ended(&mut self, now: u32, counters: &mut Counters) -> Option<Event> {
+        match self.decoder.finish::<HostMessage>()? {
             Ok(message) => self.accept(message, now, counters),
             Err(e) => {
                 counters.reject(match e {

@@ -19,7 +19,11 @@
 //! [`FrameDecoder`] takes bytes one at a time and yields each complete
 //! frame's message or the reason it was rejected ([`FrameError`]): bad COBS,
 //! too long, CRC mismatch, undecodable or with bytes left over. No input
-//! makes it panic. [`encode`] writes one frame.
+//! makes it panic. It undoes COBS as the bytes arrive and decodes the
+//! messages the firmware receives every cycle (setpoints, trajectory
+//! points) without serde ([`Message`]): the receive path is part of the
+//! board's 1 kHz control step. [`encode`] writes one frame; [`decode`] is
+//! the general (serde) path for one whole frame.
 //!
 //! What a well-formed message *means* (sequence order, value ranges) is the
 //! receiver's business: see `cdpr-control`'s link layer.
@@ -35,8 +39,12 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod frame_decoder;
+mod message;
 mod messages;
 
+pub use frame_decoder::FrameDecoder;
+pub use message::Message;
 pub use messages::*;
 
 use serde::{de::DeserializeOwned, Serialize};
@@ -104,12 +112,21 @@ pub fn encode<T: Serialize>(message: &T, out: &mut [u8]) -> Result<usize, FrameE
 /// message must re-encode to exactly the payload (postcard's decoder also
 /// takes overlong varints, e.g. the tag `1` as `81 00`, so one message would
 /// otherwise have many encodings); anything else is [`FrameError::Decode`].
+/// This is the general path (serde's, for any message type); the firmware's
+/// receiver, [`FrameDecoder`], decodes COBS as the bytes arrive and its
+/// messages through [`Message::from_payload`].
 pub fn decode<T: DeserializeOwned + Serialize>(frame: &mut [u8]) -> Result<T, FrameError> {
     if frame.is_empty() {
         return Err(FrameError::Framing);
     }
     let len = cobs::decode_in_place(frame).map_err(|_| FrameError::Framing)?;
     let raw = frame.get(..len).ok_or(FrameError::Framing)?;
+    decode_payload_serde(checked_payload(raw)?)
+}
+
+/// The payload of a frame's COBS-decoded bytes (`payload ++ CRC-32`), if it
+/// is long enough and its CRC matches ([`FrameError::Crc`] otherwise).
+pub fn checked_payload(raw: &[u8]) -> Result<&[u8], FrameError> {
     if raw.len() < CRC_LEN + 1 {
         return Err(FrameError::Crc);
     }
@@ -118,6 +135,14 @@ pub fn decode<T: DeserializeOwned + Serialize>(frame: &mut [u8]) -> Result<T, Fr
     if crc32(payload) != expected {
         return Err(FrameError::Crc);
     }
+    Ok(payload)
+}
+
+/// Decodes a payload (postcard bytes, the CRC already checked and removed)
+/// through serde, canonical encodings only: [`FrameError::Decode`] if it is
+/// not a `T` or not the encoding `T` re-encodes to, [`FrameError::TrailingBytes`]
+/// if bytes follow the message.
+pub fn decode_payload_serde<T: DeserializeOwned + Serialize>(payload: &[u8]) -> Result<T, FrameError> {
     let (message, rest) = postcard::take_from_bytes::<T>(payload).map_err(|_| FrameError::Decode)?;
     if !rest.is_empty() {
         return Err(FrameError::TrailingBytes);
@@ -126,64 +151,5 @@ pub fn decode<T: DeserializeOwned + Serialize>(frame: &mut [u8]) -> Result<T, Fr
     match postcard::to_slice(&message, &mut canonical) {
         Ok(bytes) if *bytes == *payload => Ok(message),
         _ => Err(FrameError::Decode),
-    }
-}
-
-/// Reassembles frames from a byte stream: feed every received byte to
-/// [`FrameDecoder::push`]; at each delimiter it returns the frame's message
-/// or why the frame was rejected. Empty frames (two delimiters in a row,
-/// which a sender may use to flush) are skipped silently.
-#[derive(Debug, Clone)]
-pub struct FrameDecoder {
-    buf: [u8; MAX_FRAME],
-    len: usize,
-    overflowed: bool,
-}
-
-impl Default for FrameDecoder {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl FrameDecoder {
-    /// An empty decoder.
-    pub const fn new() -> Self {
-        Self { buf: [0; MAX_FRAME], len: 0, overflowed: false }
-    }
-
-    /// Takes one byte; returns `Some` when it ended a frame.
-    pub fn push<T: DeserializeOwned + Serialize>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
-        if byte != DELIMITER {
-            match self.buf.get_mut(self.len) {
-                Some(slot) => {
-                    *slot = byte;
-                    self.len += 1;
-                }
-                None => self.overflowed = true,
-            }
-            return None;
-        }
-        let (len, overflowed) = (self.len, self.overflowed);
-        self.len = 0;
-        self.overflowed = false;
-        if overflowed {
-            return Some(Err(FrameError::Oversize));
-        }
-        if len == 0 {
-            return None;
-        }
-        Some(decode(&mut self.buf[..len]))
-    }
-
-    /// Drops a partly received frame (e.g. after a link reset).
-    pub fn reset(&mut self) {
-        self.len = 0;
-        self.overflowed = false;
-    }
-
-    /// Bytes of the frame received so far.
-    pub fn pending(&self) -> usize {
-        self.len
     }
 }
