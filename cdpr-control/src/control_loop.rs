@@ -17,7 +17,7 @@
 //! 3. the caller reports the step's measured cost with
 //!    [`ControlLoop::record_cost`] (it appears in the next telemetry).
 
-use cdpr_protocol::{Counters, DriveFault, HostMessage, Reason, Rejection, State, Telemetry};
+use cdpr_protocol::{Counters, DriveFault, HostMessage, LineFrame, Reason, Rejection, State, Telemetry};
 use tension_core::{Error, Method};
 
 use crate::controller::{Controller, Cycle, PhaseTicks, Saturation, Wrench};
@@ -95,6 +95,50 @@ pub const DEFAULT_JOINT_INTEGRAL_MAX: f32 = 10.0;
 /// the queue full is dropped and counted (`Counters::dropped_bytes`).
 pub const RECEIVE_BUDGET: usize = 256;
 
+/// Most reassembled frames [`ControlLoop::receive_frames`] takes in one
+/// cycle (the board's product: its receive interrupt reassembles frames as
+/// the bytes arrive, the control step checks and decodes them). Four
+/// setpoint frames are 340 bytes, seven times what 460 800 baud carries in
+/// a millisecond; what arrives faster waits in the interrupt's frame queue.
+pub const FRAME_BUDGET: usize = 4;
+
+/// Where [`ControlLoop::receive_frames`] takes reassembled frames from:
+/// the board's receive queue, or [`SliceFrames`].
+pub trait FrameSource {
+    /// The oldest frame, if any, left where it is.
+    fn peek(&mut self) -> Option<&LineFrame>;
+    /// Drops the oldest frame (nothing if there is none).
+    fn pop(&mut self);
+}
+
+/// The frames of a slice, in order, as a [`FrameSource`] (tests, the demo).
+#[derive(Debug, Clone)]
+pub struct SliceFrames<'a> {
+    frames: &'a [LineFrame],
+}
+
+impl<'a> SliceFrames<'a> {
+    /// The frames of `frames`.
+    pub fn new(frames: &'a [LineFrame]) -> Self {
+        Self { frames }
+    }
+
+    /// Frames not taken yet.
+    pub fn remaining(&self) -> usize {
+        self.frames.len()
+    }
+}
+
+impl FrameSource for SliceFrames<'_> {
+    fn peek(&mut self) -> Option<&LineFrame> {
+        self.frames.first()
+    }
+
+    fn pop(&mut self) {
+        self.frames = self.frames.get(1..).unwrap_or_default();
+    }
+}
+
 /// A set of tension distribution methods (by `Method::wire_id`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MethodSet(u32);
@@ -167,7 +211,8 @@ pub struct ControlLoop {
     requests: Requests,
     telemetry_period: u16,
     cycle: u32,
-    last_cost: u32,
+    /// The costliest step since the last telemetry sample.
+    worst_cost: u32,
     /// The newest setpoint that solved feasibly (what the winches hold).
     last_feasible: Option<Setpoint>,
     /// The methods `SelectMethod` may choose.
@@ -251,7 +296,7 @@ impl ControlLoop {
             requests: Requests::default(),
             telemetry_period: DEFAULT_TELEMETRY_PERIOD,
             cycle: 0,
-            last_cost: 0,
+            worst_cost: 0,
             last_feasible: None,
             offered: MethodSet::ALL,
         })
@@ -437,6 +482,24 @@ impl ControlLoop {
         }
     }
 
+    /// Takes the frames `source` holds (reassembled by the receive
+    /// interrupt: [`cdpr_protocol::FrameDecoder::finish_line`]), at most
+    /// [`FRAME_BUDGET`] (the rest stays in `source` for the next cycle);
+    /// returns how many it took. Each is checked like the same bytes
+    /// through [`ControlLoop::receive_bytes`]; frames are read where they
+    /// lie (a frame is 212 bytes: no copy).
+    pub fn receive_frames(&mut self, source: &mut impl FrameSource) -> usize {
+        for taken in 0..FRAME_BUDGET {
+            let Some(frame) = source.peek() else { return taken };
+            let event = self.link.receive_frame(frame, self.cycle, &mut self.counters);
+            source.pop();
+            if let Some(event) = event {
+                self.apply(event);
+            }
+        }
+        FRAME_BUDGET
+    }
+
     /// Reports the bytes the receiver dropped so far (its running total),
     /// shown as `Counters::dropped_bytes`.
     pub fn record_dropped(&mut self, total: u32) {
@@ -546,10 +609,10 @@ impl ControlLoop {
         core::mem::take(&mut self.identify)
     }
 
-    /// Records the measured cost of the last step (instructions or cycles),
-    /// reported in the next telemetry.
+    /// Records the measured cost of the last step (instructions or cycles);
+    /// the next telemetry sample reports the costliest since the one before.
     pub fn record_cost(&mut self, cost: u32) {
-        self.last_cost = cost;
+        self.worst_cost = self.worst_cost.max(cost);
     }
 
     /// One control cycle: reads the drives (counts -> lengths), carries out
@@ -838,7 +901,7 @@ impl ControlLoop {
                     tensions: ok.map_or([0.0; CABLES], |c| c.tensions),
                     torques: output.torques,
                     brakes: output.brakes,
-                    step_cost: self.last_cost,
+                    step_cost: core::mem::take(&mut self.worst_cost),
                     counters: self.counters,
                     method: self.controller.method().wire_id(),
                     estimate: self.estimator.last().map_or([0.0; 6], |p| (*p).into()),
@@ -890,9 +953,10 @@ impl ControlLoop {
         else {
             return false;
         };
+        // Off unless within the limit: a NaN compares as unordered, off.
         lengths.iter().zip(feasible).any(|(l, f)| {
             let e = libm::fabsf(l - f);
-            e > limit || e.is_nan()
+            !matches!(e.partial_cmp(&limit), Some(core::cmp::Ordering::Less | core::cmp::Ordering::Equal))
         })
     }
 

@@ -49,7 +49,8 @@ pub mod supervisor;
 
 pub use cdpr_protocol as protocol;
 pub use control_loop::{
-    ControlLoop, MethodSet, StepReport, FEEDBACK_RECOVERY_PER_CYCLE, FEEDBACK_SCALE_MIN, RECEIVE_BUDGET,
+    ControlLoop, FrameSource, MethodSet, SliceFrames, StepReport, FEEDBACK_RECOVERY_PER_CYCLE,
+    FEEDBACK_SCALE_MIN, FRAME_BUDGET, RECEIVE_BUDGET,
 };
 pub use drives::{WinchDrives, WinchReading};
 pub use robot::{ControlRobot, CABLES, DOF};

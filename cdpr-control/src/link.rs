@@ -28,7 +28,7 @@
 //!   otherwise.
 //! * everything else becomes an event for the control loop.
 
-use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage, Rejection};
+use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage, LineFrame, Rejection};
 use tension_core::Robot;
 
 use crate::setpoint::Setpoint;
@@ -285,7 +285,25 @@ impl Link {
     /// event of the frame it ended, if any, in cycle `now`; rejected frames
     /// are counted in `counters`.
     pub fn frame_ended(&mut self, now: u32, counters: &mut Counters) -> Option<Event> {
-        match self.decoder.finish::<HostMessage>()? {
+        let outcome = self.decoder.finish::<HostMessage>()?;
+        self.judge(outcome, now, counters)
+    }
+
+    /// A frame the receive interrupt reassembled ([`LineFrame`]), checked,
+    /// decoded and judged in cycle `now`: its event, if any; rejected
+    /// frames are counted in `counters`. The same outcome as its bytes
+    /// through [`Link::receive`].
+    pub fn receive_frame(&mut self, frame: &LineFrame, now: u32, counters: &mut Counters) -> Option<Event> {
+        self.judge(frame.message::<HostMessage>(), now, counters)
+    }
+
+    fn judge(
+        &mut self,
+        outcome: Result<HostMessage, FrameError>,
+        now: u32,
+        counters: &mut Counters,
+    ) -> Option<Event> {
+        match outcome {
             Ok(message) => self.accept(message, now, counters),
             Err(e) => {
                 counters.reject(match e {

@@ -8,8 +8,9 @@ mod common;
 use common::IdealDrives;
 
 use cdpr_control::protocol::{encode, HostMessage, Reason, Rejection, Setpoint, State, MAX_FRAME};
+use cdpr_control::protocol::{FrameDecoder, LineFrame};
 use cdpr_control::supervisor::SafetyLimits;
-use cdpr_control::{ControlLoop, MethodSet, NoClock, StepReport, RECEIVE_BUDGET};
+use cdpr_control::{ControlLoop, MethodSet, NoClock, SliceFrames, StepReport, FRAME_BUDGET, RECEIVE_BUDGET};
 use tension_core::Method;
 
 const LIMITS: SafetyLimits = SafetyLimits::DEFAULT;
@@ -330,6 +331,55 @@ fn the_receive_work_per_cycle_is_bounded() {
     assert_eq!(cycles, flood.len().div_ceil(RECEIVE_BUDGET));
     // The valid setpoints went through.
     assert!(rig.control.counters().accepted >= 2 + 38);
+}
+
+/// The same flood as reassembled frames (the board's receive interrupt
+/// does the framing): at most `FRAME_BUDGET` a cycle, the rest left for
+/// the next, and the same counters as the flood's bytes one by one.
+#[test]
+fn the_frames_per_cycle_are_bounded_and_judged_as_their_bytes() {
+    let mut flood = Vec::new();
+    for seq in 2..40 {
+        flood.extend(bytes(&HostMessage::Setpoint(low(seq))));
+        if seq % 5 == 0 {
+            // A CRC error, a framing error, an oversize frame.
+            let mut bad = bytes(&HostMessage::Setpoint(low(seq)));
+            bad[10] ^= 0x40;
+            flood.extend(bad);
+            flood.extend([0x05, 0x01, 0x02, 0x00]);
+            flood.extend([0x11u8; 400]);
+            flood.push(0);
+        }
+    }
+    let mut frames: Vec<LineFrame> = Vec::new();
+    let mut decoder = FrameDecoder::new();
+    for &b in &flood {
+        if decoder.push_byte(b) {
+            frames.extend(decoder.finish_line());
+        }
+    }
+    let mut by_frames = Rig::enabled_at(1);
+    let mut source = SliceFrames::new(&frames);
+    let mut cycles = 0;
+    while source.remaining() > 0 {
+        let before = source.remaining();
+        let taken = by_frames.control.receive_frames(&mut source);
+        assert_eq!(taken, FRAME_BUDGET.min(before));
+        assert_eq!(source.remaining(), before - taken);
+        assert_ne!(by_frames.step().state, State::Fault);
+        cycles += 1;
+    }
+    assert_eq!(cycles, frames.len().div_ceil(FRAME_BUDGET));
+    let mut by_bytes = Rig::enabled_at(1);
+    by_bytes.send_raw(&flood);
+    let (f, b) = (*by_frames.control.counters(), *by_bytes.control.counters());
+    // Home, the first setpoint and Enable, then the 38 good setpoints.
+    assert_eq!(f.accepted, 3 + 38, "{f:?}");
+    assert!(f.rejected_crc >= 7 && f.rejected_framing >= 7, "{f:?}");
+    assert_eq!(
+        (f.accepted, f.rejected_crc, f.rejected_framing, f.rejected_decode, f.rejected_order),
+        (b.accepted, b.rejected_crc, b.rejected_framing, b.rejected_decode, b.rejected_order)
+    );
 }
 
 #[test]

@@ -10,6 +10,8 @@
 //!   worst cases against the [`BUDGET`];
 //! * [`BUDGET`], [`EXPECTED_STATES`], the [`exit`] codes: what the demo's
 //!   verdict is made of;
+//! * [`stress`]: the stress set of hard poses for the board's worst-case
+//!   measurement (`cargo xtask stress`);
 //! * [`winches`]: the stand-in for the winch encoders on a board without
 //!   winches (QEMU): cables that follow the setpoint with a lag;
 //! * [`qemu`]: the emulator's machine and its `-icount` setting, which the
@@ -28,6 +30,7 @@ extern crate std;
 pub mod derive;
 pub mod methods;
 pub mod report;
+pub mod stress;
 pub mod trajectory;
 pub mod winches;
 
@@ -41,10 +44,17 @@ pub const BUDGET: u32 = 20_000;
 /// each): a step that takes longer overruns.
 pub const PERIOD_INSTRUCTIONS: u32 = (1_000_000u64 >> qemu::ICOUNT_SHIFT) as u32;
 
-/// What one cycle's receive work under any byte flood may take (a cycle's
-/// `cdpr_control::RECEIVE_BUDGET` of bytes), so that with a step at the
-/// [`BUDGET`] the cycle stays within 3/4 of [`PERIOD_INSTRUCTIONS`].
+/// What one cycle's receive work in the control step under any flood may
+/// take (a cycle's `cdpr_control::FRAME_BUDGET` of frames), so that with a
+/// step at the [`BUDGET`] the cycle stays within 3/4 of
+/// [`PERIOD_INSTRUCTIONS`].
 pub const RECEIVE_LIMIT: u32 = PERIOD_INSTRUCTIONS * 3 / 4 - BUDGET;
+
+/// What the receive interrupt's framing of one byte may take (a frame's
+/// hand-off at its delimiter included): at 460 800 baud (46 bytes a
+/// millisecond) that is at most a twentieth of the period, and it delays
+/// the control step by at most this much at a time.
+pub const FRAMING_LIMIT: u32 = 1_000;
 
 /// The states the demo goes through, in order: Enabled, Holding (the pose
 /// leaves the workspace), Fault (held too long), Disabled (the scripted

@@ -96,9 +96,12 @@ pub struct Report {
     /// order (the barycenter's in the loop, the others replayed), checked
     /// against [`crate::methods::COSTS`].
     pub method_worst: [u32; 10],
-    /// The worst receive work of one cycle under a byte flood (a cycle's
-    /// `cdpr_control::RECEIVE_BUDGET` of bytes), in the report's unit.
+    /// The control step's worst receive work of one cycle under a flood (a
+    /// cycle's `cdpr_control::FRAME_BUDGET` of frames), in the report's unit.
     pub receive_worst: u32,
+    /// The receive interrupt's worst framing work for one byte under a
+    /// flood (a frame's completion included), in the report's unit.
+    pub framing_worst: u32,
     /// Cost of the pose estimator (the forward kinematics' Gauss-Newton
     /// step) in the cycles it ran.
     pub estimator: Spread,
@@ -189,6 +192,7 @@ mod tests {
             exit_code: u32::MAX as i32,
             method_worst: [u32::MAX; 10],
             receive_worst: u32::MAX,
+            framing_worst: u32::MAX,
             estimator: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
             forward: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
         }

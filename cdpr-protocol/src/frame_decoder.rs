@@ -4,8 +4,9 @@
 //! The receive path is part of the board's 1 kHz control step, so it is
 //! written for the Cortex-M4: [`FrameDecoder::take_bytes`] takes a cycle's
 //! bytes in one loop with the decoder's state in registers, undoing COBS
-//! on the way; at the delimiter
-//! only the CRC-32 and the message's decoding remain ([`crate::Message`]).
+//! and running the CRC-32 register on the way; at the delimiter only the
+//! residue's comparison and the message's decoding remain
+//! ([`crate::Message`]).
 //! Decoding the whole frame again at its delimiter (the `cobs` crate's
 //! `decode_in_place`, which [`crate::decode`] uses) cost the board more:
 //! see BENCHMARKS.md.
@@ -18,7 +19,7 @@
 //! (the `cobs` crate's rule; `tests/frames.rs` checks that this receiver
 //! and one built on the `cobs` crate agree on arbitrary bytes).
 
-use crate::{checked_payload, FrameError, Message, DELIMITER, MAX_FRAME};
+use crate::{crc32_update, FrameError, Message, CRC32_INIT, CRC32_RESIDUE, CRC_LEN, DELIMITER, MAX_FRAME};
 
 /// Reassembles frames from a byte stream: feed every received byte to
 /// [`FrameDecoder::push`] (or many at a time to
@@ -42,6 +43,9 @@ pub struct FrameDecoder {
     /// Whether a zero comes before the next block's data (the current
     /// block's code is below 255).
     zero_next: bool,
+    /// The CRC-32 register over the decoded bytes so far: a frame is
+    /// intact when it ends at the residue ([`crate::CRC32_RESIDUE`]).
+    crc: u32,
 }
 
 impl Default for FrameDecoder {
@@ -53,7 +57,7 @@ impl Default for FrameDecoder {
 impl FrameDecoder {
     /// An empty decoder.
     pub const fn new() -> Self {
-        Self { buf: [0; MAX_FRAME], len: 0, received: 0, block_left: 0, zero_next: false }
+        Self { buf: [0; MAX_FRAME], len: 0, received: 0, block_left: 0, zero_next: false, crc: CRC32_INIT }
     }
 
     /// Takes one byte; returns `Some` when it ended a frame.
@@ -100,6 +104,7 @@ impl FrameDecoder {
         if let Some(slot) = self.buf.get_mut(self.len) {
             *slot = byte;
             self.len += 1;
+            self.crc = crc32_update(self.crc, byte);
         }
     }
 
@@ -111,8 +116,8 @@ impl FrameDecoder {
     /// the loads and stores of every field).
     #[inline]
     pub fn take_bytes(&mut self, next: &mut impl FnMut() -> Option<u8>, limit: usize) -> (usize, bool) {
-        let (mut len, mut received, mut block_left, mut zero_next) =
-            (self.len, self.received, self.block_left, self.zero_next);
+        let (mut len, mut received, mut block_left, mut zero_next, mut crc) =
+            (self.len, self.received, self.block_left, self.zero_next, self.crc);
         let mut taken = 0;
         let mut ended = false;
         while taken < limit {
@@ -146,9 +151,11 @@ impl FrameDecoder {
             if let Some(slot) = self.buf.get_mut(len) {
                 *slot = data;
                 len += 1;
+                crc = crc32_update(crc, data);
             }
         }
-        (self.len, self.received, self.block_left, self.zero_next) = (len, received, block_left, zero_next);
+        (self.len, self.received, self.block_left, self.zero_next, self.crc) =
+            (len, received, block_left, zero_next, crc);
         (taken, ended)
     }
 
@@ -156,19 +163,40 @@ impl FrameDecoder {
     /// the frame's message or why it was rejected, `None` for an empty
     /// frame; the decoder is ready for the next frame.
     pub fn finish<T: Message>(&mut self) -> Option<Result<T, FrameError>> {
-        let (len, received, complete) = (self.len, self.received, self.block_left == 0);
+        let outcome = self
+            .line_outcome()
+            .map(|raw| raw.and_then(|(raw, intact)| payload(raw, intact)).and_then(T::from_payload));
         self.reset();
-        if received > MAX_FRAME {
+        outcome
+    }
+
+    /// After a delimiter, as the receive interrupt hands frames on: the
+    /// frame as the line delivered it (COBS undone, or why it could not
+    /// be), `None` for an empty frame; the decoder is ready for the next
+    /// frame. [`LineFrame::message`] does the rest of [`FrameDecoder::finish`].
+    pub fn finish_line(&mut self) -> Option<LineFrame> {
+        let frame = match self.line_outcome()? {
+            Ok((raw, intact)) => LineFrame::checked(raw, intact),
+            Err(e) => LineFrame::rejected(e),
+        };
+        self.reset();
+        Some(frame)
+    }
+
+    /// The frame ended by a delimiter: its COBS-decoded bytes and whether
+    /// their CRC-32 holds, or oversize, or framing (its last block
+    /// incomplete); `None` if empty.
+    fn line_outcome(&self) -> Option<Result<(&[u8], bool), FrameError>> {
+        if self.received > MAX_FRAME {
             return Some(Err(FrameError::Oversize));
         }
-        if received == 0 {
+        if self.received == 0 {
             return None;
         }
-        if !complete {
+        if self.block_left != 0 {
             return Some(Err(FrameError::Framing));
         }
-        let raw = self.buf.get(..len)?;
-        Some(checked_payload(raw).and_then(T::from_payload))
+        self.buf.get(..self.len).map(|raw| Ok((raw, self.crc == CRC32_RESIDUE)))
     }
 
     /// Drops a partly received frame (e.g. after a link reset).
@@ -177,10 +205,78 @@ impl FrameDecoder {
         self.received = 0;
         self.block_left = 0;
         self.zero_next = false;
+        self.crc = CRC32_INIT;
     }
 
     /// Bytes of the frame received so far.
     pub fn pending(&self) -> usize {
         self.received
     }
+}
+
+/// A frame as the line delivered it: its COBS-decoded bytes (the payload
+/// and its CRC, not yet checked), or why it is not a frame (oversize,
+/// framing). The board's receive interrupt reassembles frames as the bytes
+/// arrive and queues these; the control step checks and decodes them
+/// ([`LineFrame::message`]).
+// Word-aligned: a frame is moved whole (the interrupt's queue, the step's
+// dequeue), and the Cortex-M4 copies aligned words four times faster
+// than bytes.
+#[derive(Debug, Clone)]
+#[repr(C, align(4))]
+pub struct LineFrame {
+    bytes: [u8; MAX_FRAME],
+    len: u8,
+    /// Whether the bytes' CRC-32 holds (run as they arrived).
+    intact: bool,
+    rejected: Option<FrameError>,
+}
+
+// A frame's decoded length is below MAX_FRAME, so it fits the `u8`.
+const _: () = assert!(MAX_FRAME <= u8::MAX as usize);
+
+impl LineFrame {
+    /// The frame whose COBS-decoded bytes are `raw` (at most [`MAX_FRAME`];
+    /// longer is oversize).
+    pub fn of(raw: &[u8]) -> Self {
+        let intact = raw.iter().fold(CRC32_INIT, |crc, &b| crc32_update(crc, b)) == CRC32_RESIDUE;
+        Self::checked(raw, intact)
+    }
+
+    /// `raw` with its CRC's verdict already known.
+    fn checked(raw: &[u8], intact: bool) -> Self {
+        let mut bytes = [0u8; MAX_FRAME];
+        match bytes.get_mut(..raw.len()) {
+            Some(dest) => {
+                dest.copy_from_slice(raw);
+                Self { bytes, len: raw.len() as u8, intact, rejected: None }
+            }
+            None => Self::rejected(FrameError::Oversize),
+        }
+    }
+
+    /// A frame rejected while it was received.
+    pub const fn rejected(why: FrameError) -> Self {
+        Self { bytes: [0; MAX_FRAME], len: 0, intact: false, rejected: Some(why) }
+    }
+
+    /// Its message (CRC checked, decoded: the same outcome as
+    /// [`FrameDecoder::push`] for the same bytes).
+    pub fn message<T: Message>(&self) -> Result<T, FrameError> {
+        if let Some(why) = self.rejected {
+            return Err(why);
+        }
+        let raw = self.bytes.get(..usize::from(self.len)).ok_or(FrameError::Framing)?;
+        payload(raw, self.intact).and_then(T::from_payload)
+    }
+}
+
+/// The payload of a frame's decoded bytes whose CRC-32 verdict is
+/// `intact` ([`FrameError::Crc`] if it is not, or if the frame is too
+/// short to hold a CRC: the same as [`crate::checked_payload`]).
+fn payload(raw: &[u8], intact: bool) -> Result<&[u8], FrameError> {
+    if raw.len() < CRC_LEN + 1 || !intact {
+        return Err(FrameError::Crc);
+    }
+    Ok(&raw[..raw.len() - CRC_LEN])
 }

@@ -389,7 +389,9 @@ pub struct Telemetry {
     pub torques: [f32; CABLES],
     /// Brakes commanded engaged.
     pub brakes: bool,
-    /// Instructions (cycles on the board) of this cycle's control step.
+    /// Instructions (cycles on the board) of the costliest control step
+    /// since the previous sample (its receive and decoding included), so
+    /// that a host sees the worst step, not one step in `period`.
     pub step_cost: u32,
     /// Counters.
     pub counters: Counters,

@@ -586,3 +586,39 @@ proptest! {
         prop_assert!(same_outcomes(&out, &feed::<HostMessage>(&stream)));
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 2000,
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"))),
+        ..ProptestConfig::default()
+    })]
+
+    /// The board's split (the receive interrupt reassembles `LineFrame`s,
+    /// the control step checks and decodes them) gives the same frames as
+    /// `push` byte by byte.
+    #[test]
+    fn line_frames_agree_with_byte_by_byte(pieces in prop::collection::vec(stream_piece(), 1..6)) {
+        let stream: Vec<u8> = pieces.concat();
+        let mut decoder = cdpr_protocol::FrameDecoder::new();
+        let mut out = Vec::new();
+        for &b in &stream {
+            if decoder.push_byte(b) {
+                out.extend(decoder.finish_line().map(|f| f.message::<HostMessage>()));
+            }
+        }
+        prop_assert!(same_outcomes(&out, &feed::<HostMessage>(&stream)));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// The slicing-by-4 CRC-32 against the `crc` crate's CRC-32/ISO-HDLC,
+    /// every length from 0 to 300 bytes (all four remainders).
+    #[test]
+    fn crc32_agrees_with_the_crc_crate(bytes in prop::collection::vec(any::<u8>(), 0..300)) {
+        let reference = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&bytes);
+        prop_assert_eq!(crc32(&bytes), reference);
+    }
+}

@@ -13,6 +13,16 @@ pub fn ticks_to_units(ticks: u32) -> u32 {
     ((u64::from(ticks) * den + num / 2) / num) as u32
 }
 
+/// TIM2's count, for code that cannot hold the [`Tim2Counter`] (the
+/// receive interrupt times itself with it); 0 before [`Tim2Counter::start`].
+#[inline(always)]
+pub fn ticks_now() -> u32 {
+    // SAFETY: a read of TIM2's counter register, which has no side effect;
+    // the one writer (`Tim2Counter::start`) runs in `init`, before any
+    // interrupt is enabled.
+    unsafe { (*TIM2::ptr()).cnt().read().bits() }
+}
+
 /// TIM2 as a free-running 32-bit up-counter, prescaler 0.
 pub struct Tim2Counter {
     tim: TIM2,

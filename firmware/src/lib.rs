@@ -38,6 +38,7 @@ pub mod periodic;
 pub mod robot;
 pub mod serial;
 pub mod stack;
+pub mod stress;
 
 use cdpr_control::feedback::{JointGains, TaskPid};
 use cdpr_control::supervisor::SafetyLimits;

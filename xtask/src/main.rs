@@ -9,6 +9,10 @@
 //! * `cargo xtask e2e`: only the end-to-end serial test (part of `test`).
 //! * `cargo xtask python`: only the Python package's checks and tests
 //!   (part of `test`; [`python`]).
+//! * `cargo xtask stress [--robot FILE] [--poses N]`: the stress set of
+//!   hard poses (default 100 000) through every method on the board's code
+//!   under QEMU: each method's worst solve and its pose, the barycenter's
+//!   analytical bound (the test command runs a short version).
 //! * `cargo xtask qemu [--robot FILE] [--tcp PORT]`: the product firmware
 //!   for that robot in QEMU, in real time, its USART1 on a local TCP port
 //!   (default 4444) for `cdpr stream --tcp 127.0.0.1:PORT`, until Ctrl-C.
@@ -32,7 +36,10 @@ use std::process::exit;
 use checks::{cargo_test, check, Tally};
 use firmware::TARGET;
 
-const USAGE: &str = "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE] | cargo xtask python | cargo xtask qemu [--robot FILE] [--tcp PORT]";
+const USAGE: &str = "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE] | cargo xtask python | cargo xtask stress [--robot FILE] [--poses N] | cargo xtask qemu [--robot FILE] [--tcp PORT]";
+
+/// Poses of `cargo xtask stress` unless `--poses` says otherwise.
+const STRESS_POSES: u32 = 100_000;
 
 /// The TCP port of `cargo xtask qemu` unless `--tcp` says otherwise.
 const QEMU_PORT: u16 = 4444;
@@ -47,6 +54,9 @@ fn main() {
     }
     if task == "qemu" {
         qemu(&args[1..]);
+    }
+    if task == "stress" {
+        stress(&args[1..]);
     }
     let robot = match robot_option(&args[args.len().min(1)..]) {
         Ok(robot) => robot,
@@ -84,6 +94,41 @@ fn robot_or_exit(file: &str) -> std::path::PathBuf {
         Err(e) => {
             eprintln!("error: {e}");
             exit(2);
+        }
+    }
+}
+
+/// `cargo xtask stress`: the stress program for the robot and the number
+/// of poses, under QEMU; exits 0 when it passes.
+fn stress(args: &[String]) -> ! {
+    let (mut robot, mut poses) = (firmware::DEFAULT_ROBOT.to_string(), STRESS_POSES);
+    let mut i = 0;
+    while i < args.len() {
+        match (args[i].as_str(), args.get(i + 1)) {
+            ("--robot", Some(file)) => robot = file.clone(),
+            ("--poses", Some(n)) => match n.parse() {
+                Ok(n) => poses = n,
+                Err(_) => {
+                    eprintln!("--poses {n}: a number\n{USAGE}");
+                    exit(2);
+                }
+            },
+            _ => {
+                eprintln!("unexpected arguments {:?}\n{USAGE}", &args[i..]);
+                exit(2);
+            }
+        }
+        i += 2;
+    }
+    let robot = robot_or_exit(&robot);
+    match firmware::setup().and_then(|()| firmware::run_stress(&robot, poses)) {
+        Ok(verdict) => {
+            println!("==> stress run: ok ({verdict})");
+            exit(0)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            exit(1)
         }
     }
 }

@@ -2,7 +2,7 @@
 //! commands over USART1 (`cdpr-protocol`), telemetry back, until reset.
 //!
 //! Every millisecond ([`firmware::periodic::Releases`]) the `control` task
-//! takes up to `cdpr_control::RECEIVE_BUDGET` of the bytes USART1 received, lets [`cdpr_control::ControlLoop`]
+//! takes up to `cdpr_control::FRAME_BUDGET` of the frames the USART1 interrupt reassembled, lets [`cdpr_control::ControlLoop`]
 //! act on the frames (setpoints, enable, disable, clear fault, telemetry
 //! rate, method, home, feedback scheme, identify), reads the winch encoders, solves
 //! the newest setpoint (kinematics, wrench with the d'Alembert terms, the
@@ -20,11 +20,11 @@
 #[rtic::app(device = stm32f4::stm32f405, dispatchers = [SPI1, SPI2])]
 mod app {
     use cdpr_control::TickCounter;
-    use cdpr_protocol::{encode, DeviceMessage, MAX_FRAME};
+    use cdpr_protocol::{encode, DeviceMessage, LineFrame, MAX_FRAME};
     use firmware::periodic::Releases;
-    use firmware::serial::{self, Receiver, Transmitter, RX_QUEUE, TX_QUEUE};
+    use firmware::serial::{self, FrameQueue, Receiver, Transmitter, RX_QUEUE, TX_QUEUE};
     use firmware::{bsp, clock, drives, robot, stack, Board, CanInterrupt};
-    use heapless::spsc::{Consumer, Producer, Queue};
+    use heapless::spsc::{Producer, Queue};
 
     #[shared]
     struct Shared {
@@ -35,14 +35,14 @@ mod app {
     #[local]
     struct Local {
         board: Board,
-        rx: Consumer<'static, u8>,
+        rx: FrameQueue,
         tx: Producer<'static, u8>,
         receiver: Receiver,
         transmitter: Transmitter,
     }
 
     #[init(local = [
-        rx_queue: Queue<u8, RX_QUEUE> = Queue::new(),
+        rx_queue: Queue<LineFrame, RX_QUEUE> = Queue::new(),
         tx_queue: Queue<u8, TX_QUEUE> = Queue::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
@@ -58,8 +58,13 @@ mod app {
             panic!("control task already spawned");
         }
         let (can1, can2) = rest.can;
-        let local =
-            Local { board, rx, tx, receiver: Receiver::new(rx_in), transmitter: Transmitter::new(tx_out) };
+        let local = Local {
+            board,
+            rx: FrameQueue(rx),
+            tx,
+            receiver: Receiver::new(rx_in),
+            transmitter: Transmitter::new(tx_out),
+        };
         (Shared { can1, can2 }, local)
     }
 
@@ -125,9 +130,11 @@ mod app {
         let mut releases = Releases::start().await;
         loop {
             let start = clock.ticks();
+            let interrupted = serial::interrupt_ticks();
             bsp::feed_watchdog();
-            // At most RECEIVE_BUDGET bytes, whatever arrives; the rest waits.
-            control.receive_bytes(|| rx.dequeue());
+            // At most FRAME_BUDGET frames (reassembled by the USART1
+            // interrupt), whatever arrives; the rest waits.
+            control.receive_frames(rx);
             control.record_dropped(serial::dropped());
             // QEMU has no platform: the stand-in's cables are where the
             // host says at homing (nothing on the board).
@@ -138,7 +145,10 @@ mod app {
                 }
             }
             let report = control.step(&*clock, drives, overrun);
-            control.record_cost(clock::ticks_to_units(clock.since(start)));
+            // The step's own work: the receive interrupt's time within it
+            // is left out (bounded apart, see `serial`).
+            let interrupt = serial::interrupt_ticks().wrapping_sub(interrupted);
+            control.record_cost(clock::ticks_to_units(clock.since(start).saturating_sub(interrupt)));
             // The encoders' stand-in (QEMU), outside the measured step.
             drives.advance(control.last_feasible_lengths());
             // The answer to `Identify` (kept until it fits the transmit
