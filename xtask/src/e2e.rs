@@ -91,6 +91,11 @@ struct Received {
     rejected_frames: usize,
     /// Why the reader stopped, if it did before the session ended.
     reader_error: Option<String>,
+    /// When the last telemetry sample arrived (real time).
+    last_arrival: Option<Instant>,
+    /// The longest real time between two telemetry samples, and the
+    /// cycle of the sample that ended it.
+    longest_gap: (Duration, u32),
 }
 
 struct Session {
@@ -101,7 +106,40 @@ struct Session {
     sent: HashMap<u32, Setpoint>,
     /// The demo trajectory of the robot the firmware is built for.
     params: Params,
+    /// The host's clock of the stream being sent, held to the board's.
+    pacer: Pacer,
 }
+
+/// The host's clock of a stream, held to the board's: the host sends a
+/// frame a millisecond (of real time), but QEMU's virtual clock falls
+/// behind real time when QEMU gets less than the CPU it needs (a loaded
+/// 2-core machine: measured 4x slower in a CI run), and a stream paced by
+/// real time alone then arrives 4x too fast for the board's clock (the
+/// receive queue overflows, the stand-in of the winches trails far behind
+/// the setpoint). [`Session::pace`] waits whenever the host's milliseconds
+/// since [`Session::start_stream`] run more than [`PACE_LEAD`] ahead of
+/// the board's cycles (from its telemetry), so that a slow QEMU sees the
+/// same stream per cycle as a fast one.
+#[derive(Clone, Copy, Default)]
+struct Pacer {
+    /// The board's last reported cycle when the stream started.
+    anchor: u32,
+    /// The host's milliseconds since then.
+    host_ms: u32,
+}
+
+/// How far (ms) the host's stream may run ahead of the board's last
+/// reported cycle: the telemetry's period (10 cycles) and its way back
+/// over the link, with room to spare.
+const PACE_LEAD: u32 = 25;
+
+/// The longest the host waits for the board's clock in one
+/// [`Session::pace`]; a board that falls behind by more has stalled.
+const PACE_WAIT_LIMIT: Duration = Duration::from_secs(5);
+
+/// A gap this long between two telemetry samples (sent every 10 cycles)
+/// is QEMU's clock stalling, not the firmware: the session is restarted.
+const STALL_GAP: Duration = Duration::from_secs(2);
 
 impl Drop for Session {
     fn drop(&mut self) {
@@ -168,7 +206,16 @@ impl Session {
                 let mut got = sink.lock().unwrap();
                 for &b in &buf[..n] {
                     match decoder.push::<DeviceMessage>(b) {
-                        Some(Ok(DeviceMessage::Telemetry(t))) => got.telemetry.push(t),
+                        Some(Ok(DeviceMessage::Telemetry(t))) => {
+                            let now = Instant::now();
+                            if let Some(gap) = got.last_arrival.map(|then| now - then) {
+                                if gap > got.longest_gap.0 {
+                                    got.longest_gap = (gap, t.cycle);
+                                }
+                            }
+                            got.last_arrival = Some(now);
+                            got.telemetry.push(t);
+                        }
                         Some(Ok(DeviceMessage::Identity(i))) => got.identities.push(i),
                         Some(Err(_)) => got.rejected_frames += 1,
                         None => {}
@@ -176,7 +223,8 @@ impl Session {
                 }
             }
         });
-        let session = Self { stream, received, qemu, seq: 0, sent: HashMap::new(), params };
+        let session =
+            Self { stream, received, qemu, seq: 0, sent: HashMap::new(), params, pacer: Pacer::default() };
         // USART1 drops what arrives before the firmware enables it: wait for
         // the first telemetry (sent every 10 cycles from start-up).
         if session.wait_for(0, Duration::from_secs(30), |_| true).is_none() {
@@ -202,6 +250,42 @@ impl Session {
         let wire = Setpoint { seq: self.seq, ..self.params.setpoint(k).to_wire() };
         self.sent.insert(self.seq, wire);
         self.send(&HostMessage::Setpoint(wire))
+    }
+
+    /// The board's last reported control cycle (0 before any telemetry).
+    fn board_cycle(&self) -> u32 {
+        self.received.lock().unwrap().telemetry.last().map_or(0, |t| t.cycle)
+    }
+
+    /// Starts a stream: [`Session::pace`] counts the host's milliseconds
+    /// from here, against the board's cycles from its last report.
+    fn start_stream(&mut self) {
+        self.pacer = Pacer { anchor: self.board_cycle(), host_ms: 0 };
+    }
+
+    /// Waits `ms` milliseconds of real time, and then for as long as the
+    /// board's clock is more than [`PACE_LEAD`] cycles behind the host's
+    /// stream (at most [`PACE_WAIT_LIMIT`]; a board that far behind has
+    /// stalled, which the session's gap check reports).
+    fn pace(&mut self, ms: u32) {
+        thread::sleep(Duration::from_millis(u64::from(ms)));
+        self.pacer.host_ms += ms;
+        let due = (self.pacer.anchor + self.pacer.host_ms).saturating_sub(PACE_LEAD);
+        let start = Instant::now();
+        while self.board_cycle() < due && start.elapsed() < PACE_WAIT_LIMIT {
+            thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// An error if QEMU's clock stalled during the session (a gap of
+    /// [`STALL_GAP`] or more between two telemetry samples).
+    fn stalled(&self) -> Result<(), String> {
+        let (gap, cycle) = self.received.lock().unwrap().longest_gap;
+        if gap >= STALL_GAP {
+            Err(format!("no telemetry for {:.1} s before cycle {cycle}", gap.as_secs_f64()))
+        } else {
+            Ok(())
+        }
     }
 
     fn telemetry_count(&self) -> usize {
@@ -465,6 +549,9 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
     results.insert(2, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
     results.insert(3, estimates(&tracking_sent, &tracking));
 
+    // A session whose QEMU stalled is restarted whatever its checks said:
+    // its timings are not the firmware's.
+    s.stalled()?;
     let garbage = s.received.lock().unwrap().rejected_frames;
     if garbage > 0 {
         results.push(("telemetry frames decode on the host".into(), Err(format!("{garbage} bad frames"))));
@@ -512,8 +599,8 @@ fn estimates(sent: &HashMap<u32, Setpoint>, samples: &[Telemetry]) -> Check {
     )
 }
 
-/// The pause between two frames of a stream.
-const PACE: Duration = Duration::from_millis(1);
+/// The pause between two frames of a stream, ms ([`Session::pace`]).
+const PACE: u32 = 1;
 
 /// Before phase 0: `Identify` is answered with the identity of the robot
 /// file the firmware was built from (name, as the protocol truncates it,
@@ -584,12 +671,13 @@ fn homing(s: &mut Session) -> Result<Check, String> {
 fn track(s: &mut Session) -> Result<Vec<Telemetry>, String> {
     s.send(&HostMessage::TelemetryPeriod(TELEMETRY_PERIOD))?;
     let from = s.telemetry_count();
+    s.start_stream();
     for k in 0..TRACKING_SETPOINTS {
         s.send_setpoint(k)?;
         if k == 5 {
             s.send(&HostMessage::Enable)?;
         }
-        thread::sleep(PACE);
+        s.pace(PACE);
     }
     if s.caught_up(from).is_none() {
         let last = s.telemetry_since(from).last().copied();
@@ -613,9 +701,10 @@ fn corrupted_frame(s: &mut Session, last: Option<Telemetry>) -> Result<Check, St
     let n = encode(&HostMessage::Setpoint(bad), &mut frame).map_err(|e| format!("{e:?}"))?;
     frame[12] ^= 0x10;
     s.send_raw(&frame[..n])?;
+    s.start_stream();
     for k in k0..k0 + 50 {
         s.send_setpoint(k)?;
-        thread::sleep(PACE);
+        s.pace(PACE);
     }
     s.caught_up(before).ok_or("the firmware never reported the setpoints after the corrupted frame")?;
     let after = s.telemetry_since(before);
@@ -645,6 +734,7 @@ fn corrupted_frame(s: &mut Session, last: Option<Telemetry>) -> Result<Check, St
 fn nan_poses(s: &mut Session, before: usize) -> Result<Check, String> {
     // NaN setpoints until the firmware reports a fault (at most 10 s).
     let start = Instant::now();
+    s.start_stream();
     while start.elapsed() < Duration::from_secs(10)
         && s.find_since(before, |t| t.state == State::Fault).is_none()
     {
@@ -652,7 +742,7 @@ fn nan_poses(s: &mut Session, before: usize) -> Result<Check, String> {
         let nan = Setpoint { seq: s.seq, pose: [f32::NAN, 0.0, 2.0, 0.0, 0.0, 0.0], ..s.sent[&(s.seq - 1)] };
         s.sent.insert(s.seq, nan);
         s.send(&HostMessage::Setpoint(nan))?;
-        thread::sleep(PACE);
+        s.pace(PACE);
     }
     let holding = s.wait_for(before, Duration::from_secs(2), |t| t.state == State::Holding);
     let fault = s.wait_for(before, Duration::from_secs(2), |t| t.state == State::Fault);
@@ -684,6 +774,7 @@ fn ramp_and_recover(s: &mut Session, before: usize) -> Result<Check, String> {
     });
     let from = s.telemetry_count();
     let k0 = TRACKING_SETPOINTS;
+    s.start_stream();
     for k in k0..k0 + 40 {
         s.send_setpoint(k)?;
         if k == k0 + 10 {
@@ -692,7 +783,7 @@ fn ramp_and_recover(s: &mut Session, before: usize) -> Result<Check, String> {
         if k == k0 + 20 {
             s.send(&HostMessage::Enable)?;
         }
-        thread::sleep(PACE);
+        s.pace(PACE);
     }
     let back = s.wait_for(from, Duration::from_secs(10), |t| t.state == State::Enabled);
     Ok((
@@ -721,8 +812,8 @@ const FLOOD_STEP_LIMIT: u32 = 90_000;
 /// line rate are the demo's receive flood (256 bytes a cycle).
 const FLOOD_JUNK: usize = 40;
 
-/// The pause between two setpoints of the flood.
-const FLOOD_PACE: Duration = Duration::from_millis(3);
+/// The pause between two setpoints of the flood, ms ([`Session::pace`]).
+const FLOOD_PACE: u32 = 3;
 
 /// Setpoints streamed in the flood.
 const FLOOD_SETPOINTS: u32 = 300;
@@ -736,6 +827,7 @@ fn flood(s: &mut Session) -> Result<Check, String> {
     // Cycles 1240..1640 of the trajectory: all inside the workspace (the
     // excursion out of it starts later: `host_robot` checks).
     let k0 = TRACKING_SETPOINTS + 40;
+    s.start_stream();
     for (i, k) in (k0..k0 + FLOOD_SETPOINTS).enumerate() {
         s.send_setpoint(k)?;
         let junk: Vec<u8> = match i % 4 {
@@ -773,14 +865,14 @@ fn flood(s: &mut Session) -> Result<Check, String> {
             burst.push(0);
             s.send_raw(&burst)?;
         }
-        thread::sleep(FLOOD_PACE);
+        s.pace(FLOOD_PACE);
     }
     // The stream goes on cleanly until the firmware has caught up.
     let k1 = k0 + FLOOD_SETPOINTS;
     let mut caught = None;
     for k in k1..k1 + 100 {
         s.send_setpoint(k)?;
-        thread::sleep(PACE);
+        s.pace(PACE);
         caught = s.find_since(from, |t| t.setpoint_seq == s.seq);
         if caught.is_some() {
             break;
@@ -874,6 +966,7 @@ fn method_over_the_link(
     let from = s.telemetry_count();
     s.send_raw(&poison_frame())?;
     s.seq = 0;
+    s.start_stream();
     for k in 0..300 {
         s.send_setpoint(k)?;
         match k {
@@ -891,7 +984,7 @@ fn method_over_the_link(
             60 => s.send(&HostMessage::Enable)?,
             _ => {}
         }
-        thread::sleep(PACE);
+        s.pace(PACE);
     }
     s.caught_up(from).ok_or("the firmware never reported the setpoints of the new session")?;
     let switched = s.telemetry_since(from);
