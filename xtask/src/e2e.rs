@@ -468,7 +468,10 @@ pub fn run(robot: &Path) -> Vec<Check> {
 /// about 15 s; 40 attempts leave about 0.6 % of runs failing at a 7-in-8
 /// stall rate. Rewriting `CNT` from the idle loop when it is past `ARR` did
 /// not lower the rate (tried, reverted). A check that fails is not
-/// retried: only a session that stops. Measured again with the derived
+/// retried: only a session that stops, or one whose telemetry stopped for
+/// [`STALL_GAP`] or more (a stall that a phase's waits outlasted: the
+/// checks after it saw the receive queue overflow, as in a CI run of
+/// session 7 that failed five checks on a loaded machine). Measured again with the derived
 /// trajectories of issue 15 (idle 2-core machine, `cargo xtask e2e` run
 /// back to back, and in one `cargo xtask test`): suspended-8 5 stalled
 /// sessions of 13, ipanema1 1 of 9 (6 of 22, 27 %), none in the
