@@ -14,9 +14,10 @@ pub trait Real: RealField + Copy {
     /// stays in single precision (libm's `sinf`/`cosf` work in `f64`, which
     /// the Cortex-M4F emulates in software at about 1200 instructions a call).
     fn sin_cos_native(self) -> (Self, Self);
-    /// Square root in the type's own precision. `f64` uses libm; `f32` uses
-    /// [`sqrt_f32`] (libm's `sqrtf` is a bit-by-bit software loop on
-    /// Cortex-M, where no libm routine uses the FPU's square root).
+    /// Square root in the type's own precision, correctly rounded where the
+    /// processor has a square-root instruction: `f64` by [`sqrt_f64`],
+    /// `f32` by [`sqrt_f32`] (libm's `sqrtf` is a software loop on
+    /// Cortex-M, where no libm routine uses the FPU's `vsqrt.f32`).
     fn sqrt_native(self) -> Self;
 }
 
@@ -35,7 +36,7 @@ impl Real for f64 {
     }
     #[inline]
     fn sqrt_native(self) -> Self {
-        nalgebra::ComplexField::sqrt(self)
+        sqrt_f64(self)
     }
 }
 
@@ -58,13 +59,47 @@ impl Real for f32 {
     }
 }
 
-/// Square root in single precision: a first guess from halving the exponent
-/// in the bit pattern (within 4 %), then three Newton (Heron) steps
-/// `y <- (y + x / y) / 2`, each doubling the correct digits
-/// (4e-2 -> 8e-4 -> 3e-7 -> rounding), so the result is within one unit in
-/// the last place. Zero, infinity and NaN map to themselves, a negative
-/// number to NaN, as `sqrt` does; subnormals are scaled first.
+/// Square root in double precision: nalgebra's, which is `std`'s (the
+/// processor's instruction, as a compiler intrinsic) with this crate's
+/// `std` feature, and libm's otherwise. Host builds should enable `std`:
+/// libm's x86 `sqrt` is inline assembly `sqrtsd`, legacy-SSE encoded, and
+/// inside AVX code (`-C target-cpu=native`) each one stalls on the switch
+/// between the two encodings (issue 17: polygon code 2-3x slower).
+#[inline]
+pub fn sqrt_f64(x: f64) -> f64 {
+    nalgebra::ComplexField::sqrt(x)
+}
+
+/// Square root in single precision. On a bare-metal target (the board:
+/// `target_os = "none"`) [`sqrt_f32_newton`]: libm's `sqrtf` is a software
+/// loop on Cortex-M (about 55 instructions) and the FPU's `vsqrt.f32` is
+/// out of reach of safe stable Rust there. On a host the processor's
+/// correctly rounded square root (through `std` as [`sqrt_f64`], or
+/// libm's `sqrtss`): the Newton steps' divisions are a long dependency
+/// chain on a desktop, which made `f32` slower than `f64` there. The two
+/// differ by at most one unit in the last place.
+#[inline]
 pub fn sqrt_f32(x: f32) -> f32 {
+    #[cfg(target_os = "none")]
+    {
+        sqrt_f32_newton(x)
+    }
+    #[cfg(not(target_os = "none"))]
+    {
+        nalgebra::ComplexField::sqrt(x)
+    }
+}
+
+/// Square root in single precision without a square-root instruction: a
+/// first guess from halving the exponent in the bit pattern (within 4 %),
+/// then three Newton (Heron) steps `y <- (y + x / y) / 2`, each doubling the
+/// correct digits (4e-2 -> 8e-4 -> 3e-7 -> rounding), so the result is
+/// within one unit in the last place. Zero, infinity and NaN map to
+/// themselves, a negative number to NaN, as `sqrt` does; subnormals are
+/// scaled first.
+// A host build calls it from the tests only.
+#[cfg_attr(not(target_os = "none"), allow(dead_code))]
+pub fn sqrt_f32_newton(x: f32) -> f32 {
     if x.is_nan() || x < 0.0 {
         return f32::NAN;
     }
@@ -188,17 +223,29 @@ mod tests {
             );
         }
         let mut worst_sqrt = 0.0f64;
-        let mut v = 1.0e-40f32;
+        let (mut v, mut checked) = (1.0e-40f32, 0);
         while v < 1.0e38 {
             let exact = (v as f64).sqrt();
-            worst_sqrt = worst_sqrt.max(((sqrt_f32(v) as f64) - exact).abs() / exact);
+            worst_sqrt = worst_sqrt.max(((sqrt_f32_newton(v) as f64) - exact).abs() / exact);
+            // The f64 root rounded to f32 is the correctly rounded f32 root
+            // (53 bits are more than 2 x 24 + 2: no double rounding); the
+            // host's `sqrt_f32` is the processor's.
+            assert_eq!(sqrt_f32(v).to_bits(), (exact as f32).to_bits(), "sqrt_f32({v:e})");
+            assert_eq!(sqrt_f64(f64::from(v)), exact, "sqrt_f64({v:e})");
+            checked += 1;
             v *= 1.0137;
         }
+        assert!(checked > 9_000, "{checked} values");
         assert!(worst_sqrt < 1.2e-7, "sqrt relative error {worst_sqrt}");
-        assert_eq!(sqrt_f32(0.0), 0.0);
-        assert_eq!(sqrt_f32(4.0), 2.0);
-        assert_eq!(sqrt_f32(f32::INFINITY), f32::INFINITY);
-        assert!(sqrt_f32(-1.0).is_nan() && sqrt_f32(f32::NAN).is_nan());
+        for f in [sqrt_f32, sqrt_f32_newton] {
+            assert_eq!(f(0.0), 0.0);
+            assert_eq!(f(4.0), 2.0);
+            assert_eq!(f(f32::INFINITY), f32::INFINITY);
+            assert!(f(-1.0).is_nan() && f(f32::NAN).is_nan());
+        }
+        assert_eq!(sqrt_f64(0.0), 0.0);
+        assert_eq!(sqrt_f64(f64::INFINITY), f64::INFINITY);
+        assert!(sqrt_f64(-1.0).is_nan() && sqrt_f64(f64::NAN).is_nan());
         let (s, c) = sin_cos_f32(f32::NAN);
         assert!(s.is_nan() && c.is_nan());
         assert!(sin_cos_f32(f32::INFINITY).0.is_nan());

@@ -1,0 +1,232 @@
+//! What `-C target-cpu=native` does to the host's cost, beside the default
+//! build, in one run (`cargo bench --bench native_flags`; issue 17).
+//!
+//! The bench measures its table (the default build), then builds itself
+//! again with `RUSTFLAGS="-C target-cpu=native"` in `target/native` and
+//! runs that copy for the same table, and prints both side by side with
+//! the ratio native / default. The table, per robot (suspended-8, IPAnema 1)
+//! and precision (`f64`, `f32`): the kinematics (`Robot::wrench_problem`:
+//! `W` and `f` of a pose) and the methods a controller runs (barycenter
+//! warm and cold, closed form, improved closed form, puncture, analytic
+//! centre warm, minimum 2-norm), each the median time per call over 1000
+//! poses of a smooth 1 kHz path, 20 rounds. Criterion measures the same
+//! calls in the default build (`cargo bench --bench native_flags -- NAME`
+//! to filter).
+//!
+//! Ratios, not absolute times, carry over between machines; a native build
+//! is only for the machine it was built on.
+
+use std::{
+    hint::black_box,
+    process::Command,
+    time::{Duration, Instant},
+};
+
+use cdpr_integration_tests::shipped_robot;
+use criterion::Criterion;
+use nalgebra::SVector;
+use tension_core::{Method, Real, Robot, TensionSolver};
+
+/// Set in the native copy's environment: it prints its rows and exits.
+const CHILD: &str = "CDPR_NATIVE_FLAGS_CHILD";
+
+/// Rounds over the 1000 poses for each median.
+const ROUNDS: usize = 20;
+
+/// The methods timed, warm (the solver's carried state) or cold.
+const METHODS: [(Method, bool); 7] = [
+    (Method::Barycenter, true),
+    (Method::Barycenter, false),
+    (Method::ClosedForm, true),
+    (Method::ImprovedClosedForm, true),
+    (Method::Puncture, true),
+    (Method::AnalyticCentre, true),
+    (Method::Min2Norm, true),
+];
+
+/// 1000 poses along a smooth closed path around `centre` at 1 kHz.
+fn poses<T: Real>(centre: [f64; 3], amp: [f64; 3], tilt: [f64; 3]) -> Vec<SVector<T, 6>> {
+    (0..1000)
+        .map(|k| {
+            let s = 2.0 * std::f64::consts::PI * k as f64 / 1000.0;
+            SVector::<T, 6>::from_fn(|i, _| {
+                T::lit(match i {
+                    0 => centre[0] + amp[0] * s.sin(),
+                    1 => centre[1] + amp[1] * (2.0 * s).sin(),
+                    2 => centre[2] + amp[2] * s.cos(),
+                    3 => tilt[0] * s.sin(),
+                    4 => -tilt[1] * s.cos(),
+                    _ => tilt[2] * s.sin(),
+                })
+            })
+        })
+        .collect()
+}
+
+/// One timed thing: its name and a call over pose `k` (state carried).
+type Timed<'a> = (String, Box<dyn FnMut(usize) + 'a>);
+
+/// The kinematics and the methods of [`METHODS`] for `robot` along `path`.
+fn timed<'a, T: Real>(robot: &'a Robot<T, 6, 8>, path: &'a [SVector<T, 6>]) -> Vec<Timed<'a>> {
+    let problems: Vec<_> =
+        path.iter().map(|p| robot.wrench_problem(p, &SVector::zeros(), None).expect("path pose")).collect();
+    let mut all: Vec<Timed<'a>> = vec![(
+        "kinematics (W and f)".into(),
+        Box::new(move |k| {
+            black_box(robot.wrench_problem(black_box(&path[k]), &SVector::zeros(), None).ok());
+        }),
+    )];
+    for (method, warm) in METHODS {
+        let problems = problems.clone();
+        let mut solver = TensionSolver::<T, 8>::new(method);
+        let limits = *robot.limits();
+        let name = if method.warm_starts() {
+            format!("{} ({})", method.name(), if warm { "warm" } else { "cold" })
+        } else {
+            method.name().to_string()
+        };
+        all.push((
+            name,
+            Box::new(move |k| {
+                if !warm {
+                    solver.reset();
+                }
+                let (w, f) = &problems[k];
+                black_box(solver.solve(w, f, &limits).ok());
+            }),
+        ));
+    }
+    all
+}
+
+/// Median time per call over the path, `ROUNDS` rounds, each call timed.
+fn median(call: &mut dyn FnMut(usize)) -> Duration {
+    let mut times = Vec::with_capacity(ROUNDS * 1000);
+    for _ in 0..ROUNDS {
+        for k in 0..1000 {
+            let start = Instant::now();
+            call(k);
+            times.push(start.elapsed());
+        }
+    }
+    times.sort_unstable();
+    times[times.len() / 2]
+}
+
+/// The rows `(table, name, median)` of one robot in precision `T`; each
+/// call measured by criterion too unless `child`.
+fn rows<T: Real>(
+    c: &mut Criterion,
+    child: bool,
+    label: &str,
+    robot: &str,
+    shape: [[f64; 3]; 3],
+) -> Vec<(String, String, Duration)> {
+    let robot: Robot<T, 6, 8> = shipped_robot(robot);
+    let path = poses::<T>(shape[0], shape[1], shape[2]);
+    let mut calls = timed(&robot, &path);
+    if !child {
+        let mut group = c.benchmark_group(format!("native-flags/{label}"));
+        group.sample_size(10);
+        for (name, call) in calls.iter_mut() {
+            group.bench_function(name.as_str(), |b| {
+                b.iter(|| {
+                    for k in 0..1000 {
+                        call(k);
+                    }
+                })
+            });
+        }
+        group.finish();
+    }
+    calls.iter_mut().map(|(name, call)| (label.to_string(), name.clone(), median(call.as_mut()))).collect()
+}
+
+/// This build's table.
+fn table(c: &mut Criterion, child: bool) -> Vec<(String, String, Duration)> {
+    let suspended = [[0.0, 0.0, 1.5], [0.6, 0.4, 0.3], [0.05, 0.05, 0.15]];
+    let ipanema = [[0.0, 0.0, 1.0], [0.4, 0.25, 0.1], [0.02, 0.02, 0.05]];
+    let mut all = rows::<f64>(c, child, "suspended-8 f64", "suspended-8", suspended);
+    all.extend(rows::<f32>(c, child, "suspended-8 f32", "suspended-8", suspended));
+    all.extend(rows::<f64>(c, child, "ipanema1 f64", "ipanema1", ipanema));
+    all.extend(rows::<f32>(c, child, "ipanema1 f32", "ipanema1", ipanema));
+    all
+}
+
+/// Builds and runs this bench with native flags; its rows, by table and name.
+fn native_rows() -> Result<Vec<(String, String, f64)>, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let root = env!("CARGO_MANIFEST_DIR");
+    let target = std::path::Path::new(root).join("target/native");
+    println!(
+        "building and running the native copy (RUSTFLAGS=\"-C target-cpu=native\", {})",
+        target.display()
+    );
+    let out = Command::new(cargo)
+        .current_dir(root)
+        .args(["bench", "--bench", "native_flags"])
+        .env("RUSTFLAGS", "-C target-cpu=native")
+        .env("CARGO_TARGET_DIR", &target)
+        .env(CHILD, "1")
+        .output()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("the native build failed: {}", String::from_utf8_lossy(&out.stderr)));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| {
+            let mut f = l.strip_prefix("row\t")?.split('\t');
+            Some((f.next()?.to_string(), f.next()?.to_string(), f.next()?.parse().ok()?))
+        })
+        .collect())
+}
+
+fn main() {
+    let child = std::env::var_os(CHILD).is_some();
+    let mut c = Criterion::default().configure_from_args();
+    let default = table(&mut c, child);
+    if child {
+        for (label, name, t) in &default {
+            println!("row\t{label}\t{name}\t{}", t.as_secs_f64() * 1e9);
+        }
+        return;
+    }
+    c.final_summary();
+    let native = match native_rows() {
+        Ok(rows) => rows,
+        Err(e) => {
+            eprintln!("{e}");
+            std::process::exit(1);
+        }
+    };
+    println!("\nmedian per call, ns, over 1000 poses x {ROUNDS} rounds: the default build and -C target-cpu=native");
+    println!("| robot, precision | call | default | native | native / default |");
+    println!("| --- | --- | ---: | ---: | ---: |");
+    for (label, name, t) in &default {
+        let d = t.as_secs_f64() * 1e9;
+        match native.iter().find(|(l, n, _)| l == label && n == name) {
+            Some((_, _, n)) => println!("| {label} | {name} | {d:.0} | {n:.0} | {:.2} |", n / d),
+            None => println!("| {label} | {name} | {d:.0} | (missing) | |"),
+        }
+    }
+    println!("\nf32 / f64 per call (the same build)");
+    println!("| robot | call | default | native |");
+    println!("| --- | --- | ---: | ---: |");
+    for (label, name, t) in default.iter().filter(|(l, _, _)| l.ends_with("f32")) {
+        let robot = label.trim_end_matches(" f32");
+        let of = |rows: &[(String, String, f64)], want: &str| {
+            rows.iter().find(|(l, n, _)| l == want && n == name).map(|r| r.2)
+        };
+        let d64 = default.iter().find(|(l, n, _)| *l == format!("{robot} f64") && n == name).map(|r| r.2);
+        let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) => format!("{:.2}", a / b),
+            _ => "-".into(),
+        };
+        println!(
+            "| {robot} | {name} | {} | {} |",
+            ratio(Some(t.as_secs_f64()), d64.map(|d| d.as_secs_f64())),
+            ratio(of(&native, label), of(&native, &format!("{robot} f64")))
+        );
+    }
+}
