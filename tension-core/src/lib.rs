@@ -8,6 +8,12 @@
 //!   compile time (`N` degrees of freedom, `M` cables) and every loop has a
 //!   bound known before it starts.
 //! * Generic over the scalar ([`Real`]: `f32` on the board, `f64` on the host).
+//! * Feature `std` (off by default; the host crates of this workspace turn
+//!   it on): the processor's square root, sine and cosine through `std`
+//!   instead of libm's software ones (and libm's x86 square root, inline
+//!   assembly that stalls inside AVX code). A host build should enable it,
+//!   with `-C target-cpu=native` or without (`cargo bench --bench
+//!   native_flags` measures both).
 //! * Every public function checks its inputs and returns a typed [`Error`]
 //!   instead of panicking; nalgebra's iterative decompositions (SVD,
 //!   eigen-solvers), which loop forever on NaN, are not used at all.
