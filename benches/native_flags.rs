@@ -127,7 +127,10 @@ fn rows<T: Real>(
     let mut calls = timed(&robot, &path);
     if !child {
         let mut group = c.benchmark_group(format!("native-flags/{label}"));
-        group.sample_size(10);
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(1));
         for (name, call) in calls.iter_mut() {
             group.bench_function(name.as_str(), |b| {
                 b.iter(|| {
