@@ -16,7 +16,7 @@
 
 use std::{hint::black_box, time::Instant};
 
-use cdpr_integration_tests::shipped_robot;
+use cdpr_integration_tests::{shipped_robot, smooth_path};
 use clarabel::{algebra::CscMatrix, solver::*};
 use criterion::Criterion;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -27,7 +27,8 @@ use tension_core::{
 /// One pose: `W` and `f`.
 type Case<T, const M: usize> = (SMatrix<T, 6, M>, SVector<T, 6>);
 
-/// `count` poses along a smooth closed path around `centre` at 1 kHz.
+/// `count` poses along a smooth closed path around `centre` at 1 kHz
+/// ([`smooth_path`]): their `W` and `f`.
 fn path<T: Real, const M: usize>(
     robot: &Robot<T, 6, M>,
     centre: [f64; 3],
@@ -35,21 +36,11 @@ fn path<T: Real, const M: usize>(
     tilt: [f64; 3],
     count: usize,
 ) -> Vec<Case<T, M>> {
-    (0..count)
-        .map(|k| {
-            let s = 2.0 * std::f64::consts::PI * k as f64 / count as f64;
-            let pose = SVector::<T, 6>::from_fn(|i, _| {
-                T::lit(match i {
-                    0 => centre[0] + amp[0] * s.sin(),
-                    1 => centre[1] + amp[1] * (2.0 * s).sin(),
-                    2 => centre[2] + amp[2] * s.cos(),
-                    3 => tilt[0] * s.sin(),
-                    4 => -tilt[1] * s.cos(),
-                    _ => tilt[2] * s.sin(),
-                })
-            });
-            let w = robot.wrench_matrix(&pose).expect("pose");
-            let f = robot.required_wrench(&pose, &SVector::zeros(), None).expect("wrench");
+    smooth_path::<T>(centre, amp, tilt, count)
+        .iter()
+        .map(|pose| {
+            let w = robot.wrench_matrix(pose).expect("pose");
+            let f = robot.required_wrench(pose, &SVector::zeros(), None).expect("wrench");
             (w, f)
         })
         .collect()

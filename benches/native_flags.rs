@@ -22,7 +22,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use cdpr_integration_tests::shipped_robot;
+use cdpr_integration_tests::{shipped_robot, smooth_path};
 use criterion::Criterion;
 use nalgebra::SVector;
 use tension_core::{Method, Real, Robot, TensionSolver};
@@ -43,25 +43,6 @@ const METHODS: [(Method, bool); 7] = [
     (Method::AnalyticCentre, true),
     (Method::Min2Norm, true),
 ];
-
-/// 1000 poses along a smooth closed path around `centre` at 1 kHz.
-fn poses<T: Real>(centre: [f64; 3], amp: [f64; 3], tilt: [f64; 3]) -> Vec<SVector<T, 6>> {
-    (0..1000)
-        .map(|k| {
-            let s = 2.0 * std::f64::consts::PI * k as f64 / 1000.0;
-            SVector::<T, 6>::from_fn(|i, _| {
-                T::lit(match i {
-                    0 => centre[0] + amp[0] * s.sin(),
-                    1 => centre[1] + amp[1] * (2.0 * s).sin(),
-                    2 => centre[2] + amp[2] * s.cos(),
-                    3 => tilt[0] * s.sin(),
-                    4 => -tilt[1] * s.cos(),
-                    _ => tilt[2] * s.sin(),
-                })
-            })
-        })
-        .collect()
-}
 
 /// One timed thing: its name and a call over pose `k` (state carried).
 type Timed<'a> = (String, Box<dyn FnMut(usize) + 'a>);
@@ -123,7 +104,7 @@ fn rows<T: Real>(
     shape: [[f64; 3]; 3],
 ) -> Vec<(String, String, Duration)> {
     let robot: Robot<T, 6, 8> = shipped_robot(robot);
-    let path = poses::<T>(shape[0], shape[1], shape[2]);
+    let path = smooth_path::<T>(shape[0], shape[1], shape[2], 1000);
     let mut calls = timed(&robot, &path);
     if !child {
         let mut group = c.benchmark_group(format!("native-flags/{label}"));

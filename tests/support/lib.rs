@@ -49,6 +49,32 @@ pub fn robots_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("robots")
 }
 
+/// `count` poses along a smooth closed path around `centre` at 1 kHz (the
+/// benchmarks' path): a Lissajous figure of amplitudes `amp` (m) with the
+/// Euler angles swinging by `tilt` (rad).
+pub fn smooth_path<T: Real>(
+    centre: [f64; 3],
+    amp: [f64; 3],
+    tilt: [f64; 3],
+    count: usize,
+) -> Vec<SVector<T, 6>> {
+    (0..count)
+        .map(|k| {
+            let s = 2.0 * std::f64::consts::PI * k as f64 / count as f64;
+            SVector::<T, 6>::from_fn(|i, _| {
+                T::lit(match i {
+                    0 => centre[0] + amp[0] * s.sin(),
+                    1 => centre[1] + amp[1] * (2.0 * s).sin(),
+                    2 => centre[2] + amp[2] * s.cos(),
+                    3 => tilt[0] * s.sin(),
+                    4 => -tilt[1] * s.cos(),
+                    _ => tilt[2] * s.sin(),
+                })
+            })
+        })
+        .collect()
+}
+
 /// Loads `robots/<name>.toml` as an `N x M` robot.
 pub fn shipped_robot<T: Real, const N: usize, const M: usize>(name: &str) -> Robot<T, N, M> {
     let path = robots_dir().join(format!("{name}.toml"));
