@@ -98,18 +98,24 @@ fn robot_or_exit(file: &str) -> std::path::PathBuf {
     }
 }
 
-/// `cargo xtask stress`: the stress program for the robot and the number
-/// of poses, under QEMU; exits 0 when it passes.
-fn stress(args: &[String]) -> ! {
-    let (mut robot, mut poses) = (firmware::DEFAULT_ROBOT.to_string(), STRESS_POSES);
+/// `--robot FILE` (default [`firmware::DEFAULT_ROBOT`], made absolute by
+/// [`robot_or_exit`]) and `flag VALUE` (`what` it must be; `default` when
+/// absent) in any order among `args`, or exit with the usage.
+fn robot_and_option<T: std::str::FromStr>(
+    args: &[String],
+    flag: &str,
+    what: &str,
+    default: T,
+) -> (std::path::PathBuf, T) {
+    let (mut robot, mut value) = (firmware::DEFAULT_ROBOT.to_string(), default);
     let mut i = 0;
     while i < args.len() {
         match (args[i].as_str(), args.get(i + 1)) {
             ("--robot", Some(file)) => robot = file.clone(),
-            ("--poses", Some(n)) => match n.parse() {
-                Ok(n) => poses = n,
+            (f, Some(v)) if f == flag => match v.parse() {
+                Ok(v) => value = v,
                 Err(_) => {
-                    eprintln!("--poses {n}: a number\n{USAGE}");
+                    eprintln!("{flag} {v}: {what}\n{USAGE}");
                     exit(2);
                 }
             },
@@ -120,7 +126,13 @@ fn stress(args: &[String]) -> ! {
         }
         i += 2;
     }
-    let robot = robot_or_exit(&robot);
+    (robot_or_exit(&robot), value)
+}
+
+/// `cargo xtask stress`: the stress program for the robot and the number
+/// of poses, under QEMU; exits 0 when it passes.
+fn stress(args: &[String]) -> ! {
+    let (robot, poses) = robot_and_option(args, "--poses", "a number", STRESS_POSES);
     match firmware::setup().and_then(|()| firmware::run_stress(&robot, poses)) {
         Ok(verdict) => {
             println!("==> stress run: ok ({verdict})");
@@ -137,26 +149,7 @@ fn stress(args: &[String]) -> ! {
 /// QEMU (real time, `sleep=on`) with USART1 on a TCP server port; exits
 /// with QEMU (Ctrl-C ends both).
 fn qemu(args: &[String]) -> ! {
-    let (mut robot, mut port) = (firmware::DEFAULT_ROBOT.to_string(), QEMU_PORT);
-    let mut i = 0;
-    while i < args.len() {
-        match (args[i].as_str(), args.get(i + 1)) {
-            ("--robot", Some(file)) => robot = file.clone(),
-            ("--tcp", Some(p)) => match p.parse() {
-                Ok(p) => port = p,
-                Err(_) => {
-                    eprintln!("--tcp {p}: a port number\n{USAGE}");
-                    exit(2);
-                }
-            },
-            _ => {
-                eprintln!("unexpected arguments {:?}\n{USAGE}", &args[i..]);
-                exit(2);
-            }
-        }
-        i += 2;
-    }
-    let robot = robot_or_exit(&robot);
+    let (robot, port) = robot_and_option(args, "--tcp", "a port number", QEMU_PORT);
     if let Err(e) = firmware::setup().and_then(|()| firmware::build_product(&robot)) {
         eprintln!("error: {e}");
         exit(1);
