@@ -293,13 +293,20 @@ fn same_bits(a: &HostMessage, b: &HostMessage) -> bool {
     }
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 1000,
-        // Saved beside this file (`<name>.proptest-regressions`) and committed.
-        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"))),
+/// `cases` cases, failures saved beside this file
+/// (`frames.proptest-regressions`) and committed, replayed first.
+fn persisted(cases: u32) -> ProptestConfig {
+    ProptestConfig {
+        cases,
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource(
+            "proptest-regressions",
+        ))),
         ..ProptestConfig::default()
-    })]
+    }
+}
+
+proptest! {
+    #![proptest_config(persisted(1000))]
 
     /// Any message survives encoding and decoding, also in a stream that
     /// starts with garbage (the decoder resynchronises at a delimiter).
@@ -405,7 +412,7 @@ fn edit() -> impl Strategy<Value = Edit> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(3000))]
+    #![proptest_config(persisted(3000))]
 
     /// A fuzz of the decoder: payloads of valid messages with random edits,
     /// CRC and COBS made right so that only the decoder judges them. Every
@@ -486,11 +493,7 @@ fn stream_piece() -> impl Strategy<Value = Vec<u8>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 3000,
-        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(persisted(3000))]
 
     /// The firmware's receiver (COBS undone as the bytes arrive, setpoints
     /// and points decoded without serde) gives frame for frame what the
@@ -552,11 +555,7 @@ fn the_receiver_comparison_reaches_every_outcome() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 2000,
-        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(persisted(2000))]
 
     /// The batched receive loop (`take_bytes` with limits cutting the
     /// stream anywhere, then `finish` at each frame's end) gives the same
@@ -585,14 +584,6 @@ proptest! {
         prop_assert_eq!(total, stream.len());
         prop_assert!(same_outcomes(&out, &feed::<HostMessage>(&stream)));
     }
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 2000,
-        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"))),
-        ..ProptestConfig::default()
-    })]
 
     /// The board's split (the receive interrupt reassembles `LineFrame`s,
     /// the control step checks and decodes them) gives the same frames as
@@ -612,7 +603,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(3000))]
+    #![proptest_config(persisted(3000))]
 
     /// The slicing-by-4 CRC-32 against the `crc` crate's CRC-32/ISO-HDLC,
     /// every length from 0 to 300 bytes (all four remainders).
