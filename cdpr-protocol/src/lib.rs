@@ -86,7 +86,7 @@ pub fn crc32(bytes: &[u8]) -> u32 {
             ^ t[0][(crc >> 24) as usize];
     }
     for &b in words.remainder() {
-        crc = t[0][((crc ^ u32::from(b)) & 0xFF) as usize] ^ (crc >> 8);
+        crc = crc32_update(crc, b);
     }
     !crc
 }
