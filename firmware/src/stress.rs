@@ -122,12 +122,7 @@ pub fn run(board: &mut Board, poses: u32) -> ! {
                 (border, [0.0; 6], Kind::Border)
             }
         };
-        let setpoint = Setpoint {
-            seq: k,
-            pose: pose.into(),
-            velocity: Default::default(),
-            acceleration: Default::default(),
-        };
+        let setpoint = at_rest(k, &pose);
         let extra_wrench = Wrench::from(extra);
         let kind_at = Kind::ALL.iter().position(|&x| x == kind).unwrap_or(0);
         let mut barycenter_cost = 0;
@@ -230,14 +225,15 @@ pub fn run(board: &mut Board, poses: u32) -> ! {
     crate::exit(code)
 }
 
+/// The setpoint `seq` at `pose` at rest (the stress set's velocities and
+/// accelerations are zero).
+fn at_rest(seq: u32, pose: &[f32; 6]) -> Setpoint {
+    Setpoint { seq, pose: (*pose).into(), velocity: Default::default(), acceleration: Default::default() }
+}
+
 /// Whether the barycenter solves `pose` (the border's bisection).
 fn solves(c: &mut Controller, pose: &[f32; 6]) -> bool {
-    let setpoint = Setpoint {
-        seq: 0,
-        pose: (*pose).into(),
-        velocity: Default::default(),
-        acceleration: Default::default(),
-    };
+    let setpoint = at_rest(0, pose);
     c.wrench(&setpoint, &Wrench::zeros()).and_then(|(w, f)| c.solve(&w, &f)).is_ok()
 }
 
