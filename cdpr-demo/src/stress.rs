@@ -2,7 +2,7 @@
 //! for the board's worst-case measurement (`cargo xtask stress`, the
 //! firmware's `stress` program; issue 17, goal 2).
 //!
-//! A deterministic generator (xorshift32, Marsaglia 2003) draws from five
+//! A deterministic generator (xorshift32, Marsaglia 2003) draws from six
 //! kinds ([`Kind`]) in blocks of [`BLOCK`] consecutive poses of one kind,
 //! in a fixed rotation, so that every prefix of the set holds all of them
 //! and a warm start carries from pose to pose within a block (and is lost

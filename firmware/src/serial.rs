@@ -24,8 +24,8 @@ use stm32f4::stm32f405::{usart1::RegisterBlock, RCC, USART1};
 
 use crate::bsp;
 
-/// Reassembled frames waiting for the control task (16 frames of at most
-/// 207 bytes: 3.4 KiB).
+/// Reassembled frames waiting for the control task: `LineFrame`s of
+/// 212 bytes each, so the queue takes about 13 KiB of RAM.
 pub const RX_QUEUE: usize = 64;
 /// Telemetry bytes waiting for the line.
 pub const TX_QUEUE: usize = 2048;
