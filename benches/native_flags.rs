@@ -44,6 +44,15 @@ const METHODS: [(Method, bool); 7] = [
     (Method::Min2Norm, true),
 ];
 
+/// One row of a build's table: table (robot and precision), call, median
+/// nanoseconds per call.
+type Row = (String, String, f64);
+
+/// The median of `rows`' `call` in table `label`, ns.
+fn lookup(rows: &[Row], label: &str, call: &str) -> Option<f64> {
+    rows.iter().find(|(l, c, _)| l == label && c == call).map(|r| r.2)
+}
+
 /// One timed thing: its name and a call over pose `k` (state carried).
 type Timed<'a> = (String, Box<dyn FnMut(usize) + 'a>);
 
@@ -96,13 +105,7 @@ fn median(call: &mut dyn FnMut(usize)) -> Duration {
 
 /// The rows `(table, name, median)` of one robot in precision `T`; each
 /// call measured by criterion too unless `child`.
-fn rows<T: Real>(
-    c: &mut Criterion,
-    child: bool,
-    label: &str,
-    robot: &str,
-    shape: [[f64; 3]; 3],
-) -> Vec<(String, String, Duration)> {
+fn rows<T: Real>(c: &mut Criterion, child: bool, label: &str, robot: &str, shape: [[f64; 3]; 3]) -> Vec<Row> {
     let robot: Robot<T, 6, 8> = shipped_robot(robot);
     let path = smooth_path::<T>(shape[0], shape[1], shape[2], 1000);
     let mut calls = timed(&robot, &path);
@@ -123,11 +126,14 @@ fn rows<T: Real>(
         }
         group.finish();
     }
-    calls.iter_mut().map(|(name, call)| (label.to_string(), name.clone(), median(call.as_mut()))).collect()
+    calls
+        .iter_mut()
+        .map(|(name, call)| (label.to_string(), name.clone(), median(call.as_mut()).as_secs_f64() * 1e9))
+        .collect()
 }
 
 /// This build's table.
-fn table(c: &mut Criterion, child: bool) -> Vec<(String, String, Duration)> {
+fn table(c: &mut Criterion, child: bool) -> Vec<Row> {
     let suspended = [[0.0, 0.0, 1.5], [0.6, 0.4, 0.3], [0.05, 0.05, 0.15]];
     let ipanema = [[0.0, 0.0, 1.0], [0.4, 0.25, 0.1], [0.02, 0.02, 0.05]];
     let mut all = rows::<f64>(c, child, "suspended-8 f64", "suspended-8", suspended);
@@ -138,7 +144,7 @@ fn table(c: &mut Criterion, child: bool) -> Vec<(String, String, Duration)> {
 }
 
 /// Builds and runs this bench with native flags; its rows, by table and name.
-fn native_rows() -> Result<Vec<(String, String, f64)>, String> {
+fn native_rows() -> Result<Vec<Row>, String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let root = env!("CARGO_MANIFEST_DIR");
     let target = std::path::Path::new(root).join("target/native");
@@ -171,8 +177,8 @@ fn main() {
     let mut c = Criterion::default().configure_from_args();
     let default = table(&mut c, child);
     if child {
-        for (label, name, t) in &default {
-            println!("row\t{label}\t{name}\t{}", t.as_secs_f64() * 1e9);
+        for (label, name, ns) in &default {
+            println!("row\t{label}\t{name}\t{ns}");
         }
         return;
     }
@@ -184,33 +190,25 @@ fn main() {
             std::process::exit(1);
         }
     };
+    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) => format!("{:.2}", a / b),
+        _ => "-".into(),
+    };
     println!("\nmedian per call, ns, over 1000 poses x {ROUNDS} rounds: the default build and -C target-cpu=native");
     println!("| robot, precision | call | default | native | native / default |");
     println!("| --- | --- | ---: | ---: | ---: |");
-    for (label, name, t) in &default {
-        let d = t.as_secs_f64() * 1e9;
-        match native.iter().find(|(l, n, _)| l == label && n == name) {
-            Some((_, _, n)) => println!("| {label} | {name} | {d:.0} | {n:.0} | {:.2} |", n / d),
-            None => println!("| {label} | {name} | {d:.0} | (missing) | |"),
-        }
+    for (label, name, d) in &default {
+        let n = lookup(&native, label, name);
+        let shown = n.map_or("(missing)".into(), |n| format!("{n:.0}"));
+        println!("| {label} | {name} | {d:.0} | {shown} | {} |", ratio(n, Some(*d)));
     }
     println!("\nf32 / f64 per call (the same build)");
     println!("| robot | call | default | native |");
     println!("| --- | --- | ---: | ---: |");
-    for (label, name, t) in default.iter().filter(|(l, _, _)| l.ends_with("f32")) {
+    for (label, name, _) in default.iter().filter(|(l, _, _)| l.ends_with(" f32")) {
         let robot = label.trim_end_matches(" f32");
-        let of = |rows: &[(String, String, f64)], want: &str| {
-            rows.iter().find(|(l, n, _)| l == want && n == name).map(|r| r.2)
-        };
-        let d64 = default.iter().find(|(l, n, _)| *l == format!("{robot} f64") && n == name).map(|r| r.2);
-        let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
-            (Some(a), Some(b)) => format!("{:.2}", a / b),
-            _ => "-".into(),
-        };
-        println!(
-            "| {robot} | {name} | {} | {} |",
-            ratio(Some(t.as_secs_f64()), d64.map(|d| d.as_secs_f64())),
-            ratio(of(&native, label), of(&native, &format!("{robot} f64")))
-        );
+        let f64_label = format!("{robot} f64");
+        let of = |rows: &[Row]| ratio(lookup(rows, label, name), lookup(rows, &f64_label, name));
+        println!("| {robot} | {name} | {} | {} |", of(&default), of(&native));
     }
 }
