@@ -70,21 +70,24 @@ pub fn sqrt_f64(x: f64) -> f64 {
     nalgebra::ComplexField::sqrt(x)
 }
 
-/// Square root in single precision. On a bare-metal target (the board:
-/// `target_os = "none"`) [`sqrt_f32_newton`]: libm's `sqrtf` is a software
-/// loop on Cortex-M (about 55 instructions) and the FPU's `vsqrt.f32` is
-/// out of reach of safe stable Rust there. On a host the processor's
-/// correctly rounded square root (through `std` as [`sqrt_f64`], or
-/// libm's `sqrtss`): the Newton steps' divisions are a long dependency
-/// chain on a desktop, which made `f32` slower than `f64` there. The two
-/// differ by at most one unit in the last place.
+/// Square root in single precision, correctly rounded. On a hard-float
+/// ARM board (the Cortex-M4F) the FPU's `vsqrt.f32` through [`vfp_sqrt`]
+/// (a call of three instructions; libm's `sqrtf` is a software loop of
+/// about 55 on Cortex-M, and the instruction is out of reach of safe stable
+/// Rust in this crate); on another bare-metal target without it
+/// [`sqrt_f32_newton`]; on a host the processor's (through `std` as
+/// [`sqrt_f64`], or libm's `sqrtss`).
 #[inline]
 pub fn sqrt_f32(x: f32) -> f32 {
-    #[cfg(target_os = "none")]
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        vfp_sqrt::sqrt(x)
+    }
+    #[cfg(all(target_os = "none", not(all(target_arch = "arm", target_abi = "eabihf"))))]
     {
         sqrt_f32_newton(x)
     }
-    #[cfg(not(target_os = "none"))]
+    #[cfg(not(any(target_os = "none", all(target_arch = "arm", target_abi = "eabihf"))))]
     {
         nalgebra::ComplexField::sqrt(x)
     }
@@ -97,8 +100,8 @@ pub fn sqrt_f32(x: f32) -> f32 {
 /// within one unit in the last place. Zero, infinity and NaN map to
 /// themselves, a negative number to NaN, as `sqrt` does; subnormals are
 /// scaled first.
-// A host build calls it from the tests only.
-#[cfg_attr(not(target_os = "none"), allow(dead_code))]
+// A host build or a hard-float board calls it from the tests only.
+#[cfg_attr(any(not(target_os = "none"), target_abi = "eabihf"), allow(dead_code))]
 pub fn sqrt_f32_newton(x: f32) -> f32 {
     if x.is_nan() || x < 0.0 {
         return f32::NAN;
