@@ -189,6 +189,26 @@ pub struct FeasiblePolygon<T: Real, const M: usize> {
     /// `parallel * norms[k]`: below this, `|n_k . d|` for a unit `d` counts
     /// as parallel.
     ptol: [T; M],
+    /// The half-planes scaled to unit normals, for the walk's inner loops
+    /// ([`UnitLines`]).
+    unit: UnitLines<T, M>,
+}
+
+/// Cable `k`'s two half-planes divided by `|n_k|`: `lo_k <= u_k . lambda
+/// <= hi_k` with the unit normal `u_k = n_k / |n_k|` and the slack
+/// tolerance `tol_k = tol / |n_k|` in the same (length) units. Slacks and
+/// rates along a unit direction are then the tension-unit ones divided by
+/// `|n_k|`, so every test of the walk reads as before without a division
+/// per cable. A cable left out (a negligible row) has `u_k = 0` and limits
+/// at plus and minus the largest finite value: never reached, never the
+/// smallest margin, so the walk needs no test for it.
+#[derive(Debug, Clone)]
+pub(crate) struct UnitLines<T: Real, const M: usize> {
+    pub(crate) ux: [T; M],
+    pub(crate) uy: [T; M],
+    pub(crate) lo: [T; M],
+    pub(crate) hi: [T; M],
+    pub(crate) tol: [T; M],
 }
 
 impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
@@ -218,6 +238,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             inv_scale: T::one(),
             parallel: T::zero(),
             ptol: z,
+            unit: UnitLines { ux: z, uy: z, lo: z, hi: z, tol: z },
         }
     }
 
@@ -263,6 +284,20 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
             self.ptol[k] = parallel * self.norms[k];
         }
+        let big = T::max_value().unwrap_or_else(T::one);
+        for k in 0..M {
+            let u = &mut self.unit;
+            if self.used[k] {
+                let inv = T::one() / self.norms[k];
+                u.ux[k] = self.rows[k].x * inv;
+                u.uy[k] = self.rows[k].y * inv;
+                u.lo[k] = self.lower[k] * inv;
+                u.hi[k] = self.upper[k] * inv;
+                u.tol[k] = tol * inv;
+            } else {
+                (u.ux[k], u.uy[k], u.lo[k], u.hi[k], u.tol[k]) = (T::zero(), T::zero(), -big, big, T::zero());
+            }
+        }
         self.tol = tol;
         self.inv_scale = if scale > T::zero() { T::one() / scale } else { T::one() };
         self.parallel = parallel;
@@ -277,6 +312,18 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     #[inline]
     fn normal(&self, h: usize) -> Vector2<T> {
         let n = self.rows[h / 2];
+        if h.is_multiple_of(2) {
+            -n
+        } else {
+            n
+        }
+    }
+
+    /// Half-plane `h`'s outward unit normal (zero for a cable left out).
+    #[inline]
+    fn unit_normal(&self, h: usize) -> Vector2<T> {
+        let k = h / 2;
+        let n = Vector2::new(self.unit.ux[k], self.unit.uy[k]);
         if h.is_multiple_of(2) {
             -n
         } else {
@@ -364,13 +411,6 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 
 fn pair_of(lines: (u8, u8)) -> ActivePair {
     ActivePair { first: line_of(lines.0 as usize), second: line_of(lines.1 as usize) }
-}
-
-/// Counter-clockwise direction along a line with outward normal `a`.
-#[inline]
-fn direction<T: Real>(a: &Vector2<T>, norm: T) -> Vector2<T> {
-    let o = a / norm;
-    Vector2::new(-o.y, o.x)
 }
 
 fn line_index((cable, bound): (u8, Bound)) -> usize {

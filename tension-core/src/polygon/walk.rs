@@ -59,6 +59,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     fn walk_from(&self, start: Vertex<T>, vertices: &mut VertexList<T, M>) -> Option<ActivePair> {
         vertices.clear();
         vertices.push(start).ok()?;
+        // Every test below is on the unit-normal lines (`UnitLines`): slacks
+        // and rates in length units, no division by a row norm per cable,
+        // no test for a cable left out.
+        let u = &self.unit;
         // Outgoing edge at the first vertex: an active line along which no
         // other active half-plane is violated (Sect. 2.2.2, Eqs. 10-11). The
         // two lines that define the vertex are active by construction (their
@@ -67,20 +71,18 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let mut active: u64 = (1 << l0) | (1 << l1);
         // Margin of the first vertex: its smallest slack to another cable's lines.
         let mut best_margin = T::max_value()?;
+        let p = start.point;
         for k in 0..M {
-            if !self.used[k] {
-                continue;
-            }
-            let nv = self.rows[k].dot(&start.point);
-            let (s_lo, s_hi) = (nv - self.lower[k], self.upper[k] - nv);
-            if s_lo.abs() <= self.tol {
+            let nv = u.ux[k] * p.x + u.uy[k] * p.y;
+            let (s_lo, s_hi) = (nv - u.lo[k], u.hi[k] - nv);
+            if s_lo.abs() <= u.tol[k] {
                 active |= 1 << (2 * k);
             }
-            if s_hi.abs() <= self.tol {
+            if s_hi.abs() <= u.tol[k] {
                 active |= 1 << (2 * k + 1);
             }
             if k != l0 / 2 && k != l1 / 2 {
-                best_margin = min(best_margin, min(s_lo, s_hi) / self.norms[k]);
+                best_margin = min(best_margin, min(s_lo, s_hi));
             }
         }
         let mut edge = None;
@@ -91,7 +93,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
             let h = candidates.trailing_zeros() as usize;
             candidates &= candidates - 1;
-            let d = direction(&self.normal(h), self.norms[h / 2]);
+            let o = self.unit_normal(h);
+            let d = Vector2::new(-o.y, o.x);
             let mut others = active & !(1 << h);
             let mut blocked = false;
             for _ in 0..2 * M {
@@ -100,7 +103,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 }
                 let g = others.trailing_zeros() as usize;
                 others &= others - 1;
-                if self.normal(g).dot(&d) > self.ptol[g / 2] {
+                if self.unit_normal(g).dot(&d) > self.parallel {
                     blocked = true;
                     break;
                 }
@@ -121,15 +124,15 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         // margin is known).
         let mut prev = None;
         let big = T::max_value()?;
+        let par = self.parallel;
         // Per cable, the slack to the limit the edge approaches (`big`:
-        // never reached) and the signed rate n_k . d at which it is
+        // never reached) and the signed rate u_k . d at which it is
         // approached (zero: never reached).
         let mut slacks = [big; M];
         let mut rates = [T::zero(); M];
         for _ in 0..=2 * M {
-            let a_h = self.normal(h);
             let hc = h / 2;
-            let o = a_h / self.norms[hc];
+            let o = self.unit_normal(h);
             let d = Vector2::new(-o.y, o.x);
             // The cables whose lines define `v` (the edge's and the previous
             // edge's), left out of its margin; none at the first vertex,
@@ -145,35 +148,29 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let mut any = false;
             let mut margin = big;
             for k in 0..M {
-                if !self.used[k] {
-                    continue;
-                }
-                let nv = self.rows[k].dot(&v);
-                let nd = self.rows[k].dot(&d);
-                let (s_lo, s_hi) = (nv - self.lower[k], self.upper[k] - nv);
+                let nv = u.ux[k] * v.x + u.uy[k] * v.y;
+                let nd = u.ux[k] * d.x + u.uy[k] * d.y;
+                let (s_lo, s_hi) = (nv - u.lo[k], u.hi[k] - nv);
                 let own = k == hc;
                 if !(own || k == pc) {
-                    margin = min(margin, min(s_lo, s_hi) / self.norms[k]);
+                    margin = min(margin, min(s_lo, s_hi));
                 }
-                let dtol = self.ptol[k];
                 // The signed rate: positive towards the upper limit.
-                let slack = if own {
-                    big
-                } else if nd > dtol {
-                    s_hi
-                } else if -nd > dtol {
-                    s_lo
+                let (slack, rate) = if own {
+                    (big, T::zero())
+                } else if nd > par {
+                    (s_hi, nd)
+                } else if nd < -par {
+                    (s_lo, nd)
                 } else {
-                    big
+                    (big, T::zero())
                 };
                 slacks[k] = slack;
-                if slack == big {
-                    rates[k] = T::zero();
-                    continue;
+                rates[k] = rate;
+                if rate != T::zero() {
+                    any = true;
+                    alpha_min = min(alpha_min, slack / rate.abs());
                 }
-                any = true;
-                rates[k] = nd;
-                alpha_min = min(alpha_min, slack / nd.abs());
             }
             if !skip_margin && margin > best_margin {
                 best_margin = margin;
@@ -186,16 +183,19 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // Among lines reached there (ties: concurrent lines, Sect. 2.3),
             // the edge-supporting one bounds the normal cone: the largest
             // counter-clockwise angle from the current normal. A line's slack
-            // at the step is `slack_k - alpha |n_k . d|` (`big` for a line
+            // at the step is `slack_k - alpha |u_k . d|` (`big` for a line
             // never reached).
             let mut next = None;
             let mut best_cos = big;
             let mut first_edge_cos = None;
             for k in 0..M {
                 let rate = rates[k];
-                if slacks[k] - alpha * rate.abs() <= self.tol {
-                    let (g, sign) = if rate > T::zero() { (2 * k + 1, T::one()) } else { (2 * k, -T::one()) };
-                    let cos = sign * self.rows[k].dot(&o) / self.norms[k];
+                if slacks[k] - alpha * rate.abs() <= u.tol[k] {
+                    let (g, cos) = if rate > T::zero() {
+                        (2 * k + 1, u.ux[k] * o.x + u.uy[k] * o.y)
+                    } else {
+                        (2 * k, -(u.ux[k] * o.x + u.uy[k] * o.y))
+                    };
                     if cos < best_cos {
                         best_cos = cos;
                         next = Some(g);
