@@ -721,8 +721,10 @@ impl ControlLoop {
                 let kinematics = self.controller.kinematics(&setpoint);
                 let t1 = clock.ticks();
                 ticks.kinematics = t1.wrapping_sub(t0);
-                let result = match kinematics {
-                    Err(e) => Err(e),
+                // By reference: the kinematics (about 300 bytes) stay where
+                // they were returned.
+                let result = match &kinematics {
+                    Err(e) => Err(*e),
                     Ok(k) => {
                         // The estimate, about the setpoint.
                         estimate = measured.as_ref().map(|(lengths, _)| {
