@@ -89,6 +89,9 @@ pub struct CanDrives<P1, P2> {
     cycle: u32,
     started: bool,
     counters: BusCounters,
+    /// Per bus and node id, the drive's cable index plus one (0: no drive
+    /// here): a received frame finds its drive in one look-up.
+    by_node: [[u8; 128]; BUSES],
 }
 
 impl<P1: CanPort, P2: CanPort> CanDrives<P1, P2> {
@@ -104,6 +107,7 @@ impl<P1: CanPort, P2: CanPort> CanDrives<P1, P2> {
             cycle: 0,
             started: false,
             counters: BusCounters::default(),
+            by_node: node_table(&configs),
         }
     }
 
@@ -150,10 +154,10 @@ impl<P1: CanPort, P2: CanPort> CanDrives<P1, P2> {
             let node = match (function, id) {
                 // NMT, SYNC and the board's own PDOs are not for the board.
                 (NMT, _) | (EMCY, 0) | (RPDO1 | RPDO2, _) => None,
-                _ => self
-                    .nodes
-                    .iter_mut()
-                    .find(|n| usize::from(n.config().bus) == bus && n.config().node == id),
+                _ => match self.by_node[bus.min(BUSES - 1)][usize::from(id)] {
+                    0 => None,
+                    i => self.nodes.get_mut(usize::from(i) - 1),
+                },
             };
             match node.map(|n| n.on_frame(function, &raw, self.cycle)) {
                 Some(Received::Used) => {}
@@ -204,6 +208,18 @@ impl<P1: CanPort, P2: CanPort> CanDrives<P1, P2> {
             None => Ok(()),
         }
     }
+}
+
+/// The look-up of [`CanDrives::by_node`]: the first cable (in cable
+/// order) with each bus and node id, plus one.
+fn node_table(configs: &[DriveConfig; CABLES]) -> [[u8; 128]; BUSES] {
+    let mut table = [[0u8; 128]; BUSES];
+    for (i, c) in configs.iter().enumerate().rev() {
+        if let Some(slot) = table.get_mut(usize::from(c.bus)).and_then(|t| t.get_mut(usize::from(c.node))) {
+            *slot = i as u8 + 1;
+        }
+    }
+    table
 }
 
 /// What a port's receive gave.

@@ -104,6 +104,8 @@ pub struct Node {
     sdo_retried: bool,
     fault: Option<(DriveFaultCause, u32)>,
     statusword: Option<u16>,
+    /// The state `statusword` shows, decoded once when it arrives.
+    state: Option<DriveState>,
     position: Option<i32>,
     /// The position of the last fresh TPDO1 and the cycles since it.
     speed_from: Option<(i32, u32)>,
@@ -139,6 +141,7 @@ impl Node {
             sdo_retried: false,
             fault: None,
             statusword: None,
+            state: None,
             position: None,
             speed_from: None,
             speed: 0,
@@ -184,7 +187,7 @@ impl Node {
 
     /// Its CiA 402 state, once a statusword came.
     pub fn state(&self) -> Option<DriveState> {
-        self.statusword.map(DriveState::of_statusword)
+        self.state
     }
 
     /// The last statusword.
@@ -195,7 +198,7 @@ impl Node {
     /// Whether its reading is good: operational, no fault, a position and
     /// a statusword in "switched on" or "operation enabled".
     pub fn ready(&self) -> bool {
-        self.stage == Stage::Operational
+        matches!(self.stage, Stage::Operational)
             && self.fault.is_none()
             && self.position.is_some()
             && matches!(self.state(), Some(DriveState::SwitchedOn | DriveState::OperationEnabled))
@@ -229,13 +232,15 @@ impl Node {
             (TPDO1, 4) => {
                 self.position = Some(i32::from_le_bytes([data[0], data[1], data[2], data[3]]));
                 self.pdo_fresh = true;
-                if self.stage == Stage::Start {
+                if matches!(self.stage, Stage::Start) {
                     self.enter_operational(now);
                 }
                 Received::Used
             }
             (TPDO2, 2) => {
-                self.statusword = Some(u16::from_le_bytes([data[0], data[1]]));
+                let sw = u16::from_le_bytes([data[0], data[1]]);
+                self.statusword = Some(sw);
+                self.state = Some(DriveState::of_statusword(sw));
                 Received::Used
             }
             (SDO_RESPONSE, 8) if self.sdo_pending => {
@@ -319,7 +324,7 @@ impl Node {
     /// were received (`now` is the cycle).
     pub fn poll(&mut self, now: u32, out: &mut Outbox) {
         // The positions of the SYNC sent last cycle.
-        if self.stage == Stage::Operational && self.sync_sent {
+        if matches!(self.stage, Stage::Operational) && self.sync_sent {
             self.sync_sent = false;
             if self.pdo_fresh {
                 if let (Some(p), Some((from, cycles))) = (self.position, self.speed_from) {
@@ -446,7 +451,7 @@ impl Node {
             return false;
         }
         let n = u16::from(self.config.node);
-        if self.stage == Stage::Operational && self.fault.is_none() {
+        if matches!(self.stage, Stage::Operational) && self.fault.is_none() {
             if let Some(state) = self.state() {
                 let command = if self.fault_reset && state.is_fault() {
                     self.fault_reset = false;
@@ -487,7 +492,7 @@ impl Node {
         self.transition = None;
         match cause {
             DriveFaultCause::Emergency | DriveFaultCause::StateFault | DriveFaultCause::StateLost
-                if self.stage == Stage::Operational =>
+                if matches!(self.stage, Stage::Operational) =>
             {
                 self.fault_reset = true;
             }

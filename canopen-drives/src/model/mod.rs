@@ -10,11 +10,15 @@
 //!   EMCY, the RPDO timeout, and faults a test injects;
 //! * [`LoopbackPort`]: a `CanPort` whose frames go to drive models in
 //!   memory, delivered when the caller says ([`LoopbackPort::deliver`]),
-//!   with no bus time.
+//!   with no bus time;
+//! * [`LoopbackRig`]: the board's layer on two loopback ports with a model
+//!   per cable (the QEMU demo's drives).
 
 mod drive;
+mod rig;
 
 pub use drive::{Nmt, SimDrive, SimDriveFaults};
+pub use rig::{LoopbackDrives, LoopbackRig};
 
 use embedded_can::{ErrorKind, ExtendedId, Frame, Id, StandardId};
 
@@ -49,11 +53,8 @@ impl Frame for SimFrame {
         if data.len() > 8 {
             return None;
         }
-        let mut d = [0u8; 8];
-        for (o, b) in d.iter_mut().zip(data) {
-            *o = *b;
-        }
-        Some(Self { id: id.into(), remote: false, dlc: data.len(), data: d })
+        let (d, dlc) = crate::frame::padded(data);
+        Some(Self { id: id.into(), remote: false, dlc: usize::from(dlc), data: d })
     }
     fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
         (dlc <= 8).then(|| Self { id: id.into(), remote: true, dlc, data: [0; 8] })
@@ -104,30 +105,56 @@ impl embedded_can::Error for SimPortError {
 /// Frames a [`Ring`] holds.
 pub const RING: usize = 32;
 
+/// A frame type a [`Ring`] can hold: copyable, with an empty value to fill
+/// the slots with.
+pub trait Slot: Copy {
+    /// A placeholder frame.
+    const EMPTY: Self;
+}
+
+impl Slot for RawFrame {
+    const EMPTY: Self = RawFrame { id: 0, len: 0, data: [0; 8] };
+}
+
+impl Slot for SimFrame {
+    const EMPTY: Self =
+        SimFrame { id: Id::Standard(StandardId::ZERO), remote: false, dlc: 0, data: [0; 8] };
+}
+
 /// A bounded FIFO of frames (no allocation).
 #[derive(Debug, Clone, Copy)]
-pub struct Ring {
-    frames: [RawFrame; RING],
+pub struct Ring<F: Slot = RawFrame> {
+    frames: [F; RING],
     head: usize,
     len: usize,
     /// Frames pushed while full (dropped).
     pub dropped: u32,
 }
 
-impl Ring {
+impl<F: Slot> Ring<F> {
     /// Empty.
     pub const fn new() -> Self {
-        Self { frames: [RawFrame { id: 0, len: 0, data: [0; 8] }; RING], head: 0, len: 0, dropped: 0 }
+        Self { frames: [F::EMPTY; RING], head: 0, len: 0, dropped: 0 }
     }
 
     /// The oldest frame.
-    pub fn pop(&mut self) -> Option<RawFrame> {
+    pub fn pop(&mut self) -> Option<F> {
         (self.len > 0).then(|| {
             let f = self.frames[self.head];
             self.head = (self.head + 1) % RING;
             self.len -= 1;
             f
         })
+    }
+
+    /// Appends `frame` (counted in `dropped` if full).
+    pub fn push_frame(&mut self, frame: F) {
+        if self.len == RING {
+            self.dropped = self.dropped.wrapping_add(1);
+            return;
+        }
+        self.frames[(self.head + self.len) % RING] = frame;
+        self.len += 1;
     }
 
     /// Frames waiting.
@@ -141,7 +168,7 @@ impl Ring {
     }
 }
 
-impl Default for Ring {
+impl<F: Slot> Default for Ring<F> {
     fn default() -> Self {
         Self::new()
     }
@@ -149,22 +176,20 @@ impl Default for Ring {
 
 impl FrameSink for Ring {
     fn push(&mut self, frame: RawFrame) {
-        if self.len == RING {
-            self.dropped = self.dropped.wrapping_add(1);
-            return;
-        }
-        self.frames[(self.head + self.len) % RING] = frame;
-        self.len += 1;
+        self.push_frame(frame);
     }
 }
 
-/// A port whose frames reach drive models in memory.
+/// A port whose frames reach drive models in memory. The frames wait in
+/// the port's own frame type, so that sending and receiving (in the
+/// measured step) are a copy each, like a controller's mailbox; the
+/// conversion to the models' frames happens in [`Self::deliver`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct LoopbackPort {
     /// What the board sent, not yet delivered.
-    pub to_drives: Ring,
+    pub to_drives: Ring<SimFrame>,
     /// What the drives sent, not yet read.
-    pub to_board: Ring,
+    pub to_board: Ring<SimFrame>,
 }
 
 impl LoopbackPort {
@@ -177,14 +202,32 @@ impl LoopbackPort {
     /// `now_ns` (and their answers to the board), then lets each drive's
     /// timers run.
     pub fn deliver(&mut self, drives: &mut [SimDrive], now_ns: u64) {
+        let mut answers = Ring::<RawFrame>::new();
         while let Some(f) = self.to_drives.pop() {
+            // An extended or remote frame is no CANopen frame: no drive
+            // sees it.
+            let Some(raw) = RawFrame::from_frame(&f) else { continue };
             for d in drives.iter_mut() {
-                d.receive(&f, now_ns, &mut self.to_board);
+                d.receive(&raw, now_ns, &mut answers);
             }
+            self.forward(&mut answers);
         }
         for d in drives.iter_mut() {
-            d.tick(now_ns, &mut self.to_board);
+            d.tick(now_ns, &mut answers);
         }
+        self.forward(&mut answers);
+    }
+
+    /// The drives' answers into the board's queue.
+    fn forward(&mut self, answers: &mut Ring<RawFrame>) {
+        while let Some(raw) = answers.pop() {
+            match raw.to_frame::<SimFrame>() {
+                Some(f) => self.to_board.push_frame(f),
+                None => self.to_board.dropped = self.to_board.dropped.wrapping_add(1),
+            }
+        }
+        self.to_board.dropped = self.to_board.dropped.wrapping_add(answers.dropped);
+        answers.dropped = 0;
     }
 }
 
@@ -196,17 +239,12 @@ impl embedded_can::nb::Can for LoopbackPort {
         if self.to_drives.len() == RING {
             return Err(nb::Error::WouldBlock);
         }
-        if let Some(raw) = RawFrame::from_frame(frame) {
-            self.to_drives.push(raw);
-        }
+        self.to_drives.push_frame(*frame);
         Ok(None)
     }
 
     fn receive(&mut self) -> nb::Result<SimFrame, SimPortError> {
-        match self.to_board.pop() {
-            Some(raw) => raw.to_frame::<SimFrame>().ok_or(nb::Error::WouldBlock),
-            None => Err(nb::Error::WouldBlock),
-        }
+        self.to_board.pop().ok_or(nb::Error::WouldBlock)
     }
 }
 
