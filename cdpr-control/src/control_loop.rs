@@ -728,7 +728,7 @@ impl ControlLoop {
                     Ok(k) => {
                         // The estimate, about the setpoint.
                         estimate = measured.as_ref().map(|(lengths, _)| {
-                            let reference = Reference::of_setpoint(&setpoint.pose, &k);
+                            let reference = Reference::of_setpoint(&setpoint.pose, k);
                             self.estimator.about(reference, lengths)
                         });
                         let t2 = clock.ticks();
@@ -744,7 +744,7 @@ impl ControlLoop {
                                     &mut self.task_pid,
                                     self.controller.robot(),
                                     &setpoint,
-                                    &k,
+                                    k,
                                     est,
                                     age,
                                     dt,
@@ -770,7 +770,7 @@ impl ControlLoop {
                         }
                         ticks.feedback = clock.since(t2);
                         self.controller
-                            .finish(&setpoint, &k, &feedback, joint.as_ref(), clock, &mut ticks)
+                            .finish(&setpoint, k, &feedback, joint.as_ref(), clock, &mut ticks)
                             .map(|c| {
                                 let mut lengths = [0.0; CABLES];
                                 lengths.copy_from_slice(k.lengths.as_slice());
