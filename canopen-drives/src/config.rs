@@ -57,7 +57,15 @@ pub fn permille_of(torque: f32, per_nm: f32, max: f32) -> i16 {
     if !t.is_finite() {
         return 0;
     }
-    let t = t.clamp(-max, max);
+    // Comparisons, not `f32::clamp` (its check of the bounds' order and
+    // NaN handling cost a cycle's worth of instructions for eight drives).
+    let t = if t > max {
+        max
+    } else if t < -max {
+        -max
+    } else {
+        t
+    };
     (t + if t >= 0.0 { 0.5 } else { -0.5 }) as i16
 }
 

@@ -3,6 +3,7 @@
 //! torques, optionally with the winches' friction compensated
 //! ([`FrictionCompensation`]).
 
+use tension_core::linalg::WrenchFactorization;
 use tension_core::nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use tension_core::{Error, Method, Motion, Real, Robot, RobotKind, Solution, TensionSolver, WarmStart};
 
@@ -188,6 +189,11 @@ pub struct FrictionCompensation {
 pub struct Controller<const M: usize = CABLES> {
     robot: Robot<f32, DOF, M>,
     solver: TensionSolver<f32, M>,
+    /// The solver's factorisation, refilled every cycle.
+    scratch: WrenchFactorization<f32, DOF, M>,
+    /// The largest anchor coordinate's magnitude (the anchors' part of the
+    /// robot's size for the degenerate-cable floor, which is constant).
+    anchor_extent: f32,
     friction: Option<FrictionCompensation>,
 }
 
@@ -197,7 +203,21 @@ impl<const M: usize> Controller<M> {
         if robot.winch().is_none() {
             return Err(Error::UnsupportedShape);
         }
-        Ok(Self { robot, solver: TensionSolver::new(method), friction: None })
+        let anchor_extent = robot.anchors().iter().flat_map(|a| a.iter()).fold(0.0f32, |m, x| {
+            let x = libm::fabsf(*x);
+            if x > m {
+                x
+            } else {
+                m
+            }
+        });
+        Ok(Self {
+            robot,
+            solver: TensionSolver::new(method),
+            scratch: WrenchFactorization::zeroed(),
+            anchor_extent,
+            friction: None,
+        })
     }
 
     /// Compensates winch friction in the torques from now on (`None`, the
@@ -281,7 +301,7 @@ impl<const M: usize> Controller<M> {
 
     /// The tension distribution (warm-started from the previous success).
     pub fn solve(&mut self, w: &WrenchMatrix<M>, f: &Wrench) -> Result<Solution<f32, M>, Error> {
-        self.solver.solve(w, f, self.robot.limits())
+        self.solver.solve_with(&mut self.scratch, w, f, self.robot.limits())
     }
 
     /// Motor torques for a tension solution (no friction compensation).
@@ -368,7 +388,7 @@ impl<const M: usize> Controller<M> {
             }
             m
         };
-        let mut size = bigger(0.0, &p);
+        let mut size = bigger(self.anchor_extent, &p);
         let anchors = self.robot.anchors();
         let attachments = self.robot.attachments();
         let mut vectors = [Vector3::zeros(); M];
@@ -376,7 +396,7 @@ impl<const M: usize> Controller<M> {
         for i in 0..M {
             let rb = rot * attachments[i];
             let l = anchors[i] - p - rb;
-            size = bigger(bigger(size, &anchors[i]), &rb);
+            size = bigger(size, &rb);
             lengths[i] = l.norm_squared().sqrt_native();
             vectors[i] = l;
             rbs[i] = rb;

@@ -117,8 +117,7 @@ impl Slot for RawFrame {
 }
 
 impl Slot for SimFrame {
-    const EMPTY: Self =
-        SimFrame { id: Id::Standard(StandardId::ZERO), remote: false, dlc: 0, data: [0; 8] };
+    const EMPTY: Self = SimFrame { id: Id::Standard(StandardId::ZERO), remote: false, dlc: 0, data: [0; 8] };
 }
 
 /// A bounded FIFO of frames (no allocation).

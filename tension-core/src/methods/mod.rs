@@ -99,14 +99,29 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     limits: &TensionLimits<T, M>,
     previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
+    // Filled in place: no factorisation moved through a `Result`.
+    let mut factorization = WrenchFactorization::zeroed();
+    solve_with(method, &mut factorization, w, f, limits, previous)
+}
+
+/// [`solve`] with the factorisation written to the caller's `scratch`
+/// (whatever it held is overwritten): a control loop that keeps one does
+/// not clear a new one (about 170 numbers) every cycle.
+pub fn solve_with<T: Real, const N: usize, const M: usize>(
+    method: Method,
+    scratch: &mut WrenchFactorization<T, N, M>,
+    w: &SMatrix<T, N, M>,
+    f: &SVector<T, N>,
+    limits: &TensionLimits<T, M>,
+    previous: &PreviousCycle<T, M>,
+) -> Result<Solution<T, M>, Error> {
     if !method.supports(N, M) {
         return Err(Error::UnsupportedShape);
     }
-    // Filled in place: no factorisation moved through a `Result`.
-    let mut factorization = WrenchFactorization::zeroed();
     let null_columns = if method.reads_null_space() { M - N } else { 0 };
-    factorization.factor(w, &[true; M], null_columns)?;
-    let problem = Problem { w, f, limits, factorization: &factorization };
+    scratch.factor(w, &[true; M], null_columns)?;
+    let factorization = &*scratch;
+    let problem = Problem { w, f, limits, factorization };
     let result = method.dispatch(&problem, previous);
     // A warm start may make a method faster, never make it fail: a failure
     // that is not a proof about the problem is tried again from cold.
