@@ -19,6 +19,7 @@
 use cdpr_control::protocol::DriveFault;
 use cdpr_control::{WinchDrives, WinchReading, CABLES};
 use embedded_can::nb::Can;
+use embedded_can::{Frame, Id};
 
 use crate::cia402::{controlword, Target};
 use crate::config::{DriveConfig, Timing};
@@ -132,37 +133,26 @@ impl<P1: CanPort, P2: CanPort> CanDrives<P1, P2> {
     }
 
     fn receive_bus(&mut self, bus: usize) {
+        let bus = bus.min(BUSES - 1);
         for _ in 0..RX_PER_CYCLE {
-            let frame = match bus {
-                0 => receive(&mut self.port1),
-                _ => receive(&mut self.port2),
+            let (nodes, table, now) = (&mut self.nodes, &self.by_node[bus], self.cycle);
+            let taken = match bus {
+                0 => take(&mut self.port1, nodes, table, now),
+                _ => take(&mut self.port2, nodes, table, now),
             };
-            let frame = match frame {
-                Taken::Frame(f) => f,
+            let c = &mut self.counters;
+            match taken {
                 Taken::Empty => break,
-                Taken::Error => {
-                    self.counters.receive_errors = self.counters.receive_errors.wrapping_add(1);
-                    continue;
+                Taken::Error => c.receive_errors = c.receive_errors.wrapping_add(1),
+                Taken::Used => c.received = c.received.wrapping_add(1),
+                Taken::Garbage => {
+                    c.received = c.received.wrapping_add(1);
+                    c.garbage = c.garbage.wrapping_add(1);
                 }
-            };
-            self.counters.received = self.counters.received.wrapping_add(1);
-            let Some(raw) = frame else {
-                self.counters.unknown = self.counters.unknown.wrapping_add(1);
-                continue;
-            };
-            let (function, id) = (raw.id & 0x780, (raw.id & 0x7F) as u8);
-            let node = match (function, id) {
-                // NMT, SYNC and the board's own PDOs are not for the board.
-                (NMT, _) | (EMCY, 0) | (RPDO1 | RPDO2, _) => None,
-                _ => match self.by_node[bus.min(BUSES - 1)][usize::from(id)] {
-                    0 => None,
-                    i => self.nodes.get_mut(usize::from(i) - 1),
-                },
-            };
-            match node.map(|n| n.on_frame(function, &raw, self.cycle)) {
-                Some(Received::Used) => {}
-                Some(Received::Garbage) => self.counters.garbage = self.counters.garbage.wrapping_add(1),
-                None => self.counters.unknown = self.counters.unknown.wrapping_add(1),
+                Taken::Unknown => {
+                    c.received = c.received.wrapping_add(1);
+                    c.unknown = c.unknown.wrapping_add(1);
+                }
             }
         }
     }
@@ -224,19 +214,45 @@ fn node_table(configs: &[DriveConfig; CABLES]) -> [[u8; 128]; BUSES] {
 
 /// What a port's receive gave.
 enum Taken {
-    /// A frame: `None` if CANopen cannot use it (extended id, RTR).
-    Frame(Option<RawFrame>),
+    /// A frame its drive used.
+    Used,
+    /// A frame of a drive with the wrong length or unexpected.
+    Garbage,
+    /// A frame of no drive or function here (or an extended id, an RTR).
+    Unknown,
     /// Nothing waiting.
     Empty,
     /// A receive error (an overrun).
     Error,
 }
 
-fn receive<P: CanPort>(port: &mut P) -> Taken {
-    match port.receive() {
-        Ok(f) => Taken::Frame(RawFrame::from_frame(&f)),
-        Err(nb::Error::WouldBlock) => Taken::Empty,
-        Err(nb::Error::Other(_)) => Taken::Error,
+/// Takes one frame from `port` and hands its data, where it lies, to the
+/// drive its COB-ID names (`table`: the bus's node-id look-up).
+fn take<P: CanPort>(port: &mut P, nodes: &mut [Node; CABLES], table: &[u8; 128], now: u32) -> Taken {
+    let frame = match port.receive() {
+        Ok(f) => f,
+        Err(nb::Error::WouldBlock) => return Taken::Empty,
+        Err(nb::Error::Other(_)) => return Taken::Error,
+    };
+    let Id::Standard(id) = frame.id() else { return Taken::Unknown };
+    let data = frame.data();
+    if frame.is_remote_frame() || data.len() > 8 {
+        return Taken::Unknown;
+    }
+    let id = id.as_raw();
+    let (function, node) = (id & 0x780, (id & 0x7F) as u8);
+    let node = match (function, node) {
+        // NMT, SYNC and the board's own PDOs are not for the board.
+        (NMT, _) | (EMCY, 0) | (RPDO1 | RPDO2, _) => None,
+        _ => match table[usize::from(node)] {
+            0 => None,
+            i => nodes.get_mut(usize::from(i) - 1),
+        },
+    };
+    match node.map(|n| n.on_frame(function, data, now)) {
+        Some(Received::Used) => Taken::Used,
+        Some(Received::Garbage) => Taken::Garbage,
+        None => Taken::Unknown,
     }
 }
 

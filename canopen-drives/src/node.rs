@@ -217,9 +217,9 @@ impl Node {
     }
 
     /// A frame whose COB-ID names this drive (`function` is the COB-ID's
-    /// function code, `id & 0x780`), received in cycle `now`.
-    pub fn on_frame(&mut self, function: u16, frame: &RawFrame, now: u32) -> Received {
-        let data = frame.bytes();
+    /// function code, `id & 0x780`; `data` its data bytes), received in
+    /// cycle `now`.
+    pub fn on_frame(&mut self, function: u16, data: &[u8], now: u32) -> Received {
         match (function, data.len()) {
             (EMCY, 8) => {
                 if let Ok(m) = EmergencyMessage::decode(data) {
@@ -244,7 +244,9 @@ impl Node {
                 Received::Used
             }
             (SDO_RESPONSE, 8) if self.sdo_pending => {
-                self.on_sdo_response(frame, now);
+                let mut payload = [0u8; 8];
+                payload.copy_from_slice(data);
+                self.on_sdo_response(&payload, now);
                 Received::Used
             }
             (HEARTBEAT, 1) => {
@@ -280,11 +282,11 @@ impl Node {
         }
     }
 
-    fn on_sdo_response(&mut self, frame: &RawFrame, now: u32) {
+    fn on_sdo_response(&mut self, payload: &[u8; 8], now: u32) {
         let Stage::Configure(step) = self.stage else { return };
         let Some(client) = &mut self.sdo else { return };
         self.sdo_pending = false;
-        match client.on_response(&frame.data) {
+        match client.on_response(payload) {
             SdoEvent::Complete(value) => {
                 if self.config_step(step) == Some(ConfigStep::CheckRatedTorque) {
                     let expected = self.config.rated_torque * 1000.0;

@@ -39,13 +39,26 @@ impl FrameSink for std::vec::Vec<RawFrame> {
 }
 
 /// A frame of the simulated controllers (`embedded-can`), any identifier,
-/// data or remote.
+/// data or remote. Laid out in words (the raw identifier, then flags and
+/// length, then the data): a frame is moved in and out of the port's queue
+/// as four word copies, as a controller's mailbox registers are written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SimFrame {
-    id: Id,
+    /// The identifier's raw value (11 or 29 bits).
+    raw_id: u32,
+    extended: bool,
     remote: bool,
-    dlc: usize,
+    dlc: u8,
     data: [u8; 8],
+}
+
+/// `id` as its raw value and whether it is extended.
+#[inline]
+fn raw_of(id: Id) -> (u32, bool) {
+    match id {
+        Id::Standard(s) => (u32::from(s.as_raw()), false),
+        Id::Extended(e) => (e.as_raw(), true),
+    }
 }
 
 impl Frame for SimFrame {
@@ -53,29 +66,36 @@ impl Frame for SimFrame {
         if data.len() > 8 {
             return None;
         }
+        let (raw_id, extended) = raw_of(id.into());
         let (d, dlc) = crate::frame::padded(data);
-        Some(Self { id: id.into(), remote: false, dlc: usize::from(dlc), data: d })
+        Some(Self { raw_id, extended, remote: false, dlc, data: d })
     }
     fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
-        (dlc <= 8).then(|| Self { id: id.into(), remote: true, dlc, data: [0; 8] })
+        let (raw_id, extended) = raw_of(id.into());
+        (dlc <= 8).then(|| Self { raw_id, extended, remote: true, dlc: dlc as u8, data: [0; 8] })
     }
     fn is_extended(&self) -> bool {
-        matches!(self.id, Id::Extended(_))
+        self.extended
     }
     fn is_remote_frame(&self) -> bool {
         self.remote
     }
     fn id(&self) -> Id {
-        self.id
+        // Built by `new` from a valid identifier: both arms hold.
+        if self.extended {
+            ExtendedId::new(self.raw_id).map_or(Id::Extended(ExtendedId::ZERO), Id::Extended)
+        } else {
+            StandardId::new(self.raw_id as u16).map_or(Id::Standard(StandardId::ZERO), Id::Standard)
+        }
     }
     fn dlc(&self) -> usize {
-        self.dlc
+        usize::from(self.dlc)
     }
     fn data(&self) -> &[u8] {
         if self.remote {
             &[]
         } else {
-            &self.data[..self.dlc]
+            &self.data[..usize::from(self.dlc).min(8)]
         }
     }
 }
@@ -117,7 +137,7 @@ impl Slot for RawFrame {
 }
 
 impl Slot for SimFrame {
-    const EMPTY: Self = SimFrame { id: Id::Standard(StandardId::ZERO), remote: false, dlc: 0, data: [0; 8] };
+    const EMPTY: Self = SimFrame { raw_id: 0, extended: false, remote: false, dlc: 0, data: [0; 8] };
 }
 
 /// A bounded FIFO of frames (no allocation).
