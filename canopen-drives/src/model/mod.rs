@@ -72,7 +72,7 @@ impl Frame for SimFrame {
     }
     fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
         let (raw_id, extended) = raw_of(id.into());
-        (dlc <= 8).then(|| Self { raw_id, extended, remote: true, dlc: dlc as u8, data: [0; 8] })
+        (dlc <= 8).then_some(Self { raw_id, extended, remote: true, dlc: dlc as u8, data: [0; 8] })
     }
     fn is_extended(&self) -> bool {
         self.extended
