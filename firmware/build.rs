@@ -30,6 +30,8 @@ fn main() {
     println!("cargo:rerun-if-changed={}", top.join("memory.x").display());
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=CDPR_ROBOT");
+    // The demo with the drive layer in its measured step (`loopback::LAYER_IN_STEP`).
+    println!("cargo:rerun-if-env-changed=CDPR_DEMO_CAN_LAYER");
 
     // A relative path is taken from the workspace root (cargo runs build
     // scripts in the package's directory).

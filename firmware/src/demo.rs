@@ -49,9 +49,11 @@ use cdpr_demo::{methods, trajectory, BUDGET, EXPECTED_STATES, INJECT_AT};
 use tension_core::{Error, Method, WarmStart};
 
 use crate::clock::{self, ticks_to_units as units, Tim2Counter};
+use crate::loopback::{self, DemoDrives};
 use crate::periodic::Releases;
 use crate::robot::DEMO;
 use crate::{bsp, drives, stack, Board};
+use canopen_drives::model::LoopbackRig;
 
 /// Cycles of the scripted run (the prelude and one loop of the trajectory).
 pub const CYCLES: usize = trajectory::SCRIPT_CYCLES;
@@ -305,7 +307,25 @@ fn announce(board: &Board) -> i32 {
 /// The real-time loop over the trajectory, on the product's periodic
 /// release.
 async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults<'static> {
-    let Board { clock, drives, control, .. } = board;
+    let Board { clock, drives: board_drives, control, .. } = board;
+    // The CiA 402 layer in front of the board's drives when the build asks
+    // for it (`loopback::LAYER_IN_STEP`), started (untimed) before the run.
+    let rig = if loopback::LAYER_IN_STEP {
+        let Some(rig) = cortex_m::singleton!(: LoopbackRig = loopback::rig()) else {
+            panic!("drive models taken twice");
+        };
+        Some(rig)
+    } else {
+        None
+    };
+    let mut drives = DemoDrives { board: board_drives, rig };
+    if !drives.start() {
+        defmt::println!("drive layer: the drives did not start (rated torque in the robot file?)");
+    }
+    if loopback::LAYER_IN_STEP {
+        defmt::println!("the measured step runs the CiA 402 drive layer (CDPR_DEMO_CAN_LAYER), frames looped back in memory to 8 drive models");
+    }
+    let drives = &mut drives;
     let steps_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
     let solver_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
     let estimator_buf = cortex_m::singleton!(: [u32; CYCLES] = [0; CYCLES]);
@@ -699,68 +719,23 @@ fn replay_forward_kinematics(clock: &Tim2Counter, samples: &mut Samples) -> Spre
     Spread { min: s.min, median: s.median, max: s.max }
 }
 
-/// The CiA 402 drive layer's cost per control cycle (`canopen-drives`, the
-/// board's drives on CAN1 and CAN2), with its frames looped back in memory
-/// to eight CiA 402 drive models (`canopen_drives::model`): the start-up
+/// The CiA 402 drive layer's cost per control cycle alone (`canopen-drives`,
+/// the board's drives on CAN1 and CAN2), with its frames looped back in
+/// memory to eight CiA 402 drive models ([`LoopbackRig`]): the start-up
 /// untimed, then [`CYCLES`] cycles of `read` + `set_brakes` + `apply` timed
 /// with interrupts off (the models answer between cycles, outside the
-/// measurement), the winches following the demo trajectory's cable lengths.
-/// It is not yet in the demo's measured step; the line states what the
-/// step's worst plus the layer's worst come to against the budget.
+/// measurement) with the brakes released, the winches following the demo
+/// trajectory's cable lengths. The measured step runs the same layer
+/// ([`DemoDrives`]) when built with `CDPR_DEMO_CAN_LAYER`; otherwise the
+/// line states what the step's worst plus the layer's worst come to.
 fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32) {
-    use canopen_drives::model::{LoopbackPort, SimDrive};
-    use canopen_drives::{CanDrives, Timing};
     use cdpr_control::{WinchDrives, WinchReading};
     samples.clear();
-    let configs = crate::robot::drive_configs();
-    // The models in bus order (CAN1's first, `on_can1` of them), each
-    // standing for cable `cable_of[j]`, as the robot file places them.
-    let mut cable_of = [0usize; CABLES];
-    let mut j = 0;
-    for bus in 0..2u8 {
-        for i in (0..CABLES).filter(|&i| configs[i].bus == bus) {
-            cable_of[j] = i;
-            j += 1;
-        }
-    }
-    let on_can1 = configs.iter().filter(|c| c.bus == 0).count();
-    let mut models: [SimDrive; CABLES] = core::array::from_fn(|j| {
-        // The drive's 0x6076 as the robot file says (NaN: 0, which fails
-        // the start-up check).
-        let rated = crate::robot::RATED_TORQUE * 1000.0;
-        SimDrive::new(configs[cable_of[j]].node, if rated.is_finite() { rated as u32 } else { 0 })
-    });
-    let mut layer = CanDrives::new(LoopbackPort::new(), LoopbackPort::new(), configs, Timing::DEFAULT);
+    let mut rig = loopback::rig();
     let mut readings = [WinchReading::default(); CABLES];
     let controller = controller(Method::Barycenter);
     let Ok(scale) = crate::robot::encoder_scale() else { return };
-    let deliver =
-        |layer: &mut CanDrives<LoopbackPort, LoopbackPort>, models: &mut [SimDrive; CABLES], t: u64| {
-            let (p1, p2) = layer.ports();
-            let (m1, m2) = models.split_at_mut(on_can1);
-            p1.deliver(m1, t);
-            p2.deliver(m2, t);
-        };
-    for m in models.iter_mut() {
-        let mut boot = canopen_drives::model::Ring::new();
-        m.power_on(0, &mut boot);
-    }
-    let mut t: u64 = 0;
-    let mut up = false;
-    for _ in 0..500 {
-        let _ = layer.read(&mut readings);
-        let _ = layer.set_brakes(false);
-        let _ = layer.apply(&[0.0; CABLES]);
-        t += 1_000_000;
-        deliver(&mut layer, &mut models, t);
-        if layer.ready()
-            && models.iter().all(|m| m.state() == canopen_drives::cia402::DriveState::OperationEnabled)
-        {
-            up = true;
-            break;
-        }
-    }
-    if !up {
+    if !rig.start(loopback::START_CYCLES, 1_000_000) {
         defmt::println!("drive layer: the drive models did not start (rated torque in the robot file?)");
         return;
     }
@@ -769,13 +744,14 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
         let setpoint = DEMO.script(k);
         let torques = match controller.robot().cables(&setpoint.pose) {
             Ok(c) => {
-                for (m, &i) in models.iter_mut().zip(&cable_of) {
-                    m.set_position(scale.counts_of(i, c.lengths[i], 0).unwrap_or(0));
-                }
+                let counts: [i32; CABLES] =
+                    core::array::from_fn(|i| scale.counts_of(i, c.lengths[i], 0).unwrap_or(0));
+                rig.set_positions(&counts);
                 [0.3; CABLES]
             }
             Err(_) => [0.2; CABLES],
         };
+        let layer = &mut rig.layer;
         let (ticks, ok) = cortex_m::interrupt::free(|_| {
             let start = clock.ticks();
             let r = layer.read(&mut readings);
@@ -785,22 +761,28 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
         });
         errors += u32::from(!ok);
         samples.push(units(ticks));
-        t += 1_000_000;
-        deliver(&mut layer, &mut models, t);
+        rig.deliver(1_000_000);
     }
     let s = samples.summary();
     defmt::println!(
-        "drive layer (CiA 402 on CAN1 + CAN2, frames looped back in memory to 8 drive models) {=str}: min {=u32} median {=u32} max {=u32} per cycle over {=u32} cycles, {=u32} cycles in error; the demo's worst step {=u32} + the layer's worst = {=u32} (budget {=u32})",
+        "drive layer alone (CiA 402 on CAN1 + CAN2, frames looped back in memory to 8 drive models, brakes released) {=str}: min {=u32} median {=u32} max {=u32} per cycle over {=u32} cycles, {=u32} cycles in error",
         bsp::UNIT,
         s.min,
         s.median,
         s.max,
         s.count,
         errors,
-        step_max,
-        step_max + s.max,
-        cdpr_demo::BUDGET,
     );
+    if loopback::LAYER_IN_STEP {
+        defmt::println!("the drive layer ran inside the measured step above");
+    } else {
+        defmt::println!(
+            "the demo's worst step {=u32} + the layer's worst = {=u32} (budget {=u32}; the step with the layer inside: CDPR_DEMO_CAN_LAYER=1 cargo xtask run)",
+            step_max,
+            step_max + s.max,
+            cdpr_demo::BUDGET,
+        );
+    }
 }
 
 /// Cycles of each kind of flood [`receive_flood`] times.

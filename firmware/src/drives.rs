@@ -204,6 +204,11 @@ impl Drives {
     }
 }
 
+/// Whether the emergency stop has run (the drives refuse commands since).
+pub fn stopped() -> bool {
+    STOPPED.load(Ordering::Relaxed)
+}
+
 /// The torques and brake state last written to the drives.
 pub fn drive_outputs() -> ([f32; CABLES], bool) {
     (

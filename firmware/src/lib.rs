@@ -20,7 +20,9 @@
 //!   the CiA 402 drives on CAN1 and CAN2 through [`can`]); [`serial`]:
 //!   USART1; [`stack`]: stack painting; [`robot`]: the robot's constants,
 //!   generated from its robot file;
-//! * [`demo`]: the demo run (the `demo` and `inject-*` programs);
+//! * [`demo`]: the demo run (the `demo` and `inject-*` programs), whose
+//!   drives ([`loopback`]) put the CiA 402 layer, its frames looped back
+//!   to drive models in memory, in front of the board's;
 //! * the panic and HardFault handlers: the drives stop first, then the
 //!   program exits with [`cdpr_demo::exit::PANIC`] or
 //!   [`cdpr_demo::exit::HARDFAULT`].
@@ -33,6 +35,7 @@ pub mod can;
 pub mod clock;
 pub mod demo;
 pub mod drives;
+pub mod loopback;
 pub mod mono;
 pub mod periodic;
 pub mod robot;
