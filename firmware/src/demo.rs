@@ -733,8 +733,7 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
     samples.clear();
     let mut rig = loopback::rig();
     let mut readings = [WinchReading::default(); CABLES];
-    let controller = controller(Method::Barycenter);
-    let Ok(scale) = crate::robot::encoder_scale() else { return };
+    let (Ok(robot), Ok(scale)) = (crate::robot::robot(), crate::robot::encoder_scale()) else { return };
     if !rig.start(loopback::START_CYCLES, 1_000_000) {
         defmt::println!("drive layer: the drive models did not start (rated torque in the robot file?)");
         return;
@@ -742,7 +741,7 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
     let mut errors = 0u32;
     for k in 0..CYCLES as u32 {
         let setpoint = DEMO.script(k);
-        let torques = match controller.robot().cables(&setpoint.pose) {
+        let torques = match robot.cables(&setpoint.pose) {
             Ok(c) => {
                 let counts: [i32; CABLES] =
                     core::array::from_fn(|i| scale.counts_of(i, c.lengths[i], 0).unwrap_or(0));
