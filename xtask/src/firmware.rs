@@ -581,7 +581,7 @@ mod tests {
         Report {
             instructions: true,
             cycles: 4000,
-            step: Spread { min: 13_632, median: 15_501, max: 19_339 },
+            step: Spread { min: 12_233, median: 13_187, max: 16_510 },
             solver: Spread { min: 8_035, median: 8_808, max: 12_630 },
             overruns: 0,
             calibration_ticks: 160_000,
