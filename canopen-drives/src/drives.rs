@@ -19,11 +19,10 @@
 use cdpr_control::protocol::DriveFault;
 use cdpr_control::{WinchDrives, WinchReading, CABLES};
 use embedded_can::nb::Can;
-use embedded_can::{Frame, Id};
 
 use crate::cia402::{controlword, Target};
 use crate::config::{DriveConfig, Timing};
-use crate::frame::{RawFrame, EMCY, NMT, RPDO1, RPDO2, SYNC};
+use crate::frame::{standard_parts, RawFrame, EMCY, NMT, RPDO1, RPDO2, SYNC};
 use crate::node::{Node, Outbox, Received, Stage};
 
 /// Frames taken from a port per cycle at most (a bus carries at most 18
@@ -234,12 +233,7 @@ fn take<P: CanPort>(port: &mut P, nodes: &mut [Node; CABLES], table: &[u8; 128],
         Err(nb::Error::WouldBlock) => return Taken::Empty,
         Err(nb::Error::Other(_)) => return Taken::Error,
     };
-    let Id::Standard(id) = frame.id() else { return Taken::Unknown };
-    let data = frame.data();
-    if frame.is_remote_frame() || data.len() > 8 {
-        return Taken::Unknown;
-    }
-    let id = id.as_raw();
+    let Some((id, data)) = standard_parts(&frame) else { return Taken::Unknown };
     let (function, node) = (id & 0x780, (id & 0x7F) as u8);
     let node = match (function, node) {
         // NMT, SYNC and the board's own PDOs are not for the board.

@@ -40,20 +40,29 @@ impl RawFrame {
     }
 
     /// The frame as CANopen sees it, or `None` for an extended-identifier
-    /// or remote frame, or one longer than 8 bytes.
+    /// or remote frame, or one longer than 8 bytes ([`standard_parts`]).
     #[inline]
     pub fn from_frame<F: Frame>(frame: &F) -> Option<Self> {
-        let Id::Standard(id) = frame.id() else { return None };
-        if frame.is_remote_frame() || frame.data().len() > 8 {
-            return None;
-        }
-        Some(Self::new(id.as_raw(), frame.data()))
+        standard_parts(frame).map(|(id, data)| Self::new(id, data))
     }
 
     /// Bits this frame takes on the bus at most: [`worst_case_bits`].
     pub fn worst_case_bits(&self) -> u32 {
         worst_case_bits(self.len)
     }
+}
+
+/// A frame's 11-bit identifier and data bytes, where they lie, or `None`
+/// for what CANopen's predefined set does not use: an extended-identifier
+/// or remote frame, or one longer than 8 bytes.
+#[inline]
+pub fn standard_parts<F: Frame>(frame: &F) -> Option<(u16, &[u8])> {
+    let Id::Standard(id) = frame.id() else { return None };
+    let data = frame.data();
+    if frame.is_remote_frame() || data.len() > 8 {
+        return None;
+    }
+    Some((id.as_raw(), data))
 }
 
 /// The first 8 bytes of `data` (at most), zero-padded, and how many were
