@@ -50,13 +50,17 @@ impl DriveConfig {
     }
 }
 
-/// `torque * per_nm` within `+-max`, rounded half away from zero (the
-/// `as` cast truncates and saturates); 0 for a non-finite torque.
+/// `torque * per_nm` within `+-max` (and within `+-i16::MAX`), rounded half
+/// away from zero; 0 for a non-finite torque.
 pub fn permille_of(torque: f32, per_nm: f32, max: f32) -> i16 {
     let t = torque * per_nm;
     if !t.is_finite() {
         return 0;
     }
+    // The limit within i16 first (a NaN limit is the widest), so that the
+    // result needs no saturating conversion: through i32, the FPU's one
+    // `vcvt` (truncating, as rounding half away from zero wants).
+    let max = if max < 32_767.0 { max } else { 32_767.0 };
     // Comparisons, not `f32::clamp` (its check of the bounds' order and
     // NaN handling cost a cycle's worth of instructions for eight drives).
     let t = if t > max {
@@ -66,7 +70,7 @@ pub fn permille_of(torque: f32, per_nm: f32, max: f32) -> i16 {
     } else {
         t
     };
-    (t + if t >= 0.0 { 0.5 } else { -0.5 }) as i16
+    (t + if t >= 0.0 { 0.5 } else { -0.5 }) as i32 as i16
 }
 
 /// The layer's timing, in control cycles (one `WinchDrives::read` each,
@@ -223,4 +227,97 @@ pub fn configuration(config: &DriveConfig, timing: &Timing) -> [ConfigStep; CONF
         // Then the rated torque, compared.
         ConfigStep::CheckRatedTorque,
     ]
+}
+
+/// The loop delay the buses add to a control step, in ns, against drives
+/// read and written directly at the step: the step reads at the start of
+/// the cycle (`1e9 / cycle_hz` ns long) the positions of the last SYNC
+/// and queues its frames `step_ns` later; on each bus the
+/// `drives_per_bus` target torques (RPDO1, 2 bytes) go first, then the
+/// SYNC (no data), at `bit_rate` bit/s with worst-case stuffing
+/// ([`crate::frame::worst_case_bits`]). So
+///
+/// ```text
+/// position age  = period - (step + n b_rpdo + b_sync) / rate
+/// torque delay  = step + b_rpdo (n + 1) / (2 rate)     (the mean of the n receipts)
+/// ```
+///
+/// and the sum is returned: 545 + 287.5 = 832.5 us for the board (a
+/// 0.1 ms step, 4 drives a bus, 1 Mbit/s, 1 kHz), which `hal-sim`'s
+/// simulated buses measure (`README.md`, "One cycle's timing"). The
+/// task-space PID predicts over it (`cdpr_control::feedback::Prediction`).
+pub const fn added_loop_delay_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u32, cycle_hz: u32) -> u32 {
+    let bit_rate = if bit_rate == 0 { 1 } else { bit_rate } as u64;
+    let cycle_hz = if cycle_hz == 0 { 1 } else { cycle_hz } as u64;
+    let rpdo = crate::frame::worst_case_bits(2) as u64;
+    let sync = crate::frame::worst_case_bits(0) as u64;
+    let n = drives_per_bus as u64;
+    let period = 1_000_000_000 / cycle_hz;
+    let sync_end = step_ns as u64 + (n * rpdo + sync) * 1_000_000_000 / bit_rate;
+    let age = period.saturating_sub(sync_end);
+    let torque = step_ns as u64 + rpdo * (n + 1) * 1_000_000_000 / (2 * bit_rate);
+    let total = age + torque;
+    if total > u32::MAX as u64 {
+        u32::MAX
+    } else {
+        total as u32
+    }
+}
+
+/// [`added_loop_delay_ns`] of the board: its step's frames queued 0.1 ms
+/// into the cycle, four drives a bus (the default split of eight), 1
+/// Mbit/s, [`Timing::DEFAULT`]'s cycle rate: 832.5 us.
+pub const BOARD_LOOP_DELAY_NS: u32 = added_loop_delay_ns(100_000, 4, 1_000_000, Timing::DEFAULT.cycle_hz);
+
+#[cfg(test)]
+mod delay_tests {
+    use super::*;
+
+    #[test]
+    fn the_boards_added_loop_delay() {
+        // SYNC ends 100 + 4 x 75 + 55 = 455 us in: positions 545 us old;
+        // torques received at 175, 250, 325, 400 us: mean 287.5 us.
+        assert_eq!(added_loop_delay_ns(100_000, 4, 1_000_000, 1000), 832_500);
+        assert_eq!(BOARD_LOOP_DELAY_NS, 832_500);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::permille_of;
+    use proptest::prelude::*;
+
+    /// The f64 reference for a limit `max >= 0` or NaN: clamp to
+    /// `+-min(max, 32767)` (a NaN limit: 32767), round half away from zero;
+    /// 0 when `torque * per_nm` is not finite in f32.
+    fn reference(torque: f32, per_nm: f32, max: f32) -> i16 {
+        let t32 = torque * per_nm;
+        if !t32.is_finite() {
+            return 0;
+        }
+        let limit = if max.is_nan() { 32_767.0 } else { f64::from(max).min(32_767.0) };
+        let t = f64::from(t32).clamp(-limit, limit);
+        (t.signum() * (t.abs() + 0.5).floor()) as i16
+    }
+
+    proptest! {
+        #[test]
+        fn permille_is_the_clamped_product_rounded_half_away_from_zero(
+            torque in prop_oneof![-200.0f32..200.0, any::<f32>()],
+            per_nm in prop_oneof![0.0f32..5000.0, any::<f32>()],
+            max in prop_oneof![0.0f32..40_000.0, Just(f32::NAN), Just(f32::INFINITY), Just(1e30f32)],
+        ) {
+            prop_assert_eq!(permille_of(torque, per_nm, max), reference(torque, per_nm, max));
+        }
+    }
+
+    #[test]
+    fn permille_rounds_half_away_from_zero_and_saturates() {
+        assert_eq!(permille_of(1.5, 1.0, 100.0), 2);
+        assert_eq!(permille_of(-1.5, 1.0, 100.0), -2);
+        assert_eq!(permille_of(1.49, 1.0, 100.0), 1);
+        assert_eq!(permille_of(1e6, 1.0, 1e9), i16::MAX);
+        assert_eq!(permille_of(-1e6, 1.0, f32::NAN), -i16::MAX);
+        assert_eq!(permille_of(f32::NAN, 1.0, 100.0), 0);
+    }
 }

@@ -66,13 +66,16 @@ pub fn standard_parts<F: Frame>(frame: &F) -> Option<(u16, &[u8])> {
 }
 
 /// The first 8 bytes of `data` (at most), zero-padded, and how many were
-/// taken. CANopen's frames are 2, 4 or 8 bytes long but for a few: those
-/// lengths are copied whole, the rest byte by byte (a loop of at most 8; a
-/// general copy is a library call on the Cortex-M4).
+/// taken. CANopen's frames are 0 (SYNC), 1 (heartbeat), 2, 4 or 8 bytes
+/// long but for a few: those lengths are copied whole, the rest byte by
+/// byte (a loop of at most 8; a general copy is a library call on the
+/// Cortex-M4).
 #[inline(always)]
 pub fn padded(data: &[u8]) -> ([u8; 8], u8) {
     let mut d = [0u8; 8];
     match data.len() {
+        0 => {}
+        1 => d[0] = data[0],
         2 => d[..2].copy_from_slice(&data[..2]),
         4 => d[..4].copy_from_slice(&data[..4]),
         n if n >= 8 => d.copy_from_slice(&data[..8]),

@@ -205,9 +205,21 @@ impl Node {
     }
 
     /// Position actual (counts) and the speed from the positions (counts
-    /// per second), once a position came.
+    /// per second), once a position came. A position whose TPDO1 missed
+    /// the last `missed` SYNCs' reads (a burst of heartbeats can push the
+    /// last drive's past the next read) is extrapolated at that speed,
+    /// `p + speed missed / cycle_hz`: the reader sees where the motor
+    /// is, not a count frozen for a cycle and then jumping two (which a
+    /// derivative term turns into a kick). At most `missing_pdo_cycles - 1`
+    /// cycles: then the drive faults (`MissingPdo`).
     pub fn reading(&self) -> Option<(i32, i32)> {
-        self.position.map(|p| (p, self.speed))
+        let p = self.position?;
+        if self.missed == 0 {
+            return Some((p, self.speed));
+        }
+        let hz = self.timing.cycle_hz.clamp(1, i32::MAX as u32) as i32;
+        let missed = self.missed.min(self.timing.missing_pdo_cycles) as i32;
+        Some((p.wrapping_add((self.speed / hz).wrapping_mul(missed)), self.speed))
     }
 
     fn latch(&mut self, cause: DriveFaultCause, code: u32) {

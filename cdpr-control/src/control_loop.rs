@@ -24,7 +24,9 @@ use crate::controller::{Controller, Cycle, PhaseTicks, Saturation, Wrench};
 use crate::drives::{WinchDrives, WinchReading};
 use crate::encoder::{EncoderScale, Homing};
 use crate::estimator::{Estimate, EstimateError, Estimator, EstimatorSettings, OwnedReference, Reference};
-use crate::feedback::{length_rates, FeedbackLimits, Gains, JointGains, JointPid, Scheme, TaskPid};
+use crate::feedback::{
+    length_rates, FeedbackLimits, Gains, JointGains, JointPid, Prediction, Scheme, TaskPid,
+};
 use crate::link::{Event, JumpLimits, Link, SetpointRange};
 use crate::point_buffer::{Played, PointBuffer};
 use crate::robot::ControlRobot;
@@ -64,19 +66,42 @@ pub const DEFAULT_FEEDBACK_LIMITS: FeedbackLimits =
 /// e.g. near the workspace's border where a cable is close to `t_min`),
 /// the cycle holds the last feasible torques without leaving Enabled
 /// (`SetpointStatus::FeedbackInfeasible`) and the next cycle carries half
-/// the feedback; below [`FEEDBACK_SCALE_MIN`] none. So the feedback
+/// the feedback *force* (the moment is kept whole, [`BackOff::ForceFirst`]);
+/// below [`FEEDBACK_SCALE_MIN`] neither force nor moment. So the feedback
 /// settles at a fraction the tension polytope admits, and a setpoint that
 /// is infeasible by itself is Holding `infeasible` at most five cycles
 /// later (the torques held meanwhile, as Holding would). After each
 /// feasible cycle the fraction grows by this much; the PID's integral is
 /// frozen while it is below full (anti-windup). One solve a cycle whatever
 /// happens: the step's cost bound is unchanged. Telemetry's
-/// `feedback_scale` shows the fraction each cycle carried.
+/// `feedback_scale` shows the fraction of the force each cycle carried.
 pub const FEEDBACK_RECOVERY_PER_CYCLE: f32 = 0.02;
 
 /// Below this fraction a backed-off task-space feedback is cut to zero
 /// (four halvings: 1/16).
 pub const FEEDBACK_SCALE_MIN: f32 = 0.0625;
+
+/// How the task-space feedback backs off where the cables cannot give it
+/// ([`FEEDBACK_RECOVERY_PER_CYCLE`]).
+///
+/// Near the tension floor (the top of a suspended robot's workspace) the
+/// feedback force is what leaves the tension polytope's image: the
+/// moments the platform needs are small (at most 2-6 N m) and come from
+/// tension *differences*. Scaling the whole wrench down took the moment
+/// feedback with the force, and on the CAN buses the rotation then drifted
+/// from 0.6 to 3.4 deg in 90 ms until the estimator faulted
+/// (`hal-sim/README.md`). Either way a failing cycle holds the last
+/// feasible torques and at most five failing cycles reach no feedback at
+/// all, so a setpoint infeasible by itself is Holding as soon as before.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BackOff {
+    /// Force and moment together, halved each failing cycle.
+    Whole,
+    /// The force alone halved each failing cycle, the moment kept whole;
+    /// below [`FEEDBACK_SCALE_MIN`] both cut (the default). Both grow
+    /// back by [`FEEDBACK_RECOVERY_PER_CYCLE`].
+    ForceFirst,
+}
 
 /// The default joint-space integral bound per cable, N.
 pub const DEFAULT_JOINT_INTEGRAL_MAX: f32 = 10.0;
@@ -233,6 +258,13 @@ pub struct ControlLoop {
     /// The fraction of the task-space feedback wrench applied
     /// ([`FEEDBACK_RECOVERY_PER_CYCLE`]).
     feedback_scale: f32,
+    /// The fraction of the task-space feedback moment applied
+    /// ([`BackOff::ForceFirst`]).
+    moment_scale: f32,
+    /// How the feedback backs off.
+    back_off: BackOff,
+    /// The loop delay the task-space PID predicts over.
+    prediction: Prediction,
     /// The trajectory points waiting to be played.
     buffer: PointBuffer,
     /// An `Identify` arrived that the caller has not answered yet.
@@ -286,6 +318,9 @@ impl ControlLoop {
             tracking_limit: Some(DEFAULT_TRACKING_LIMIT),
             feasible_lengths: None,
             feedback_scale: 1.0,
+            moment_scale: 1.0,
+            back_off: BackOff::ForceFirst,
+            prediction: Prediction::NONE,
             buffer: PointBuffer::new(),
             identify: false,
             controller: Controller::new(robot, method)?,
@@ -402,6 +437,26 @@ impl ControlLoop {
     pub fn set_task_pid(&mut self, pid: TaskPid) {
         self.task_pid = pid;
         self.task_pid.reset();
+    }
+
+    /// How the task-space feedback backs off.
+    pub fn set_back_off(&mut self, back_off: BackOff) {
+        self.back_off = back_off;
+    }
+
+    /// The loop delay (s) the task-space PID predicts its errors over
+    /// beyond the direct path's: 0 for directly wired winches.
+    /// (`feedback::Prediction`; a delay that is not positive and finite
+    /// predicts nothing).
+    pub fn set_loop_delay(&mut self, delay_s: f32) {
+        let p = self.controller.robot().platform();
+        let inertia = [p.inertia[(0, 0)], p.inertia[(1, 1)], p.inertia[(2, 2)]];
+        self.prediction = Prediction::new(delay_s, p.mass, inertia);
+    }
+
+    /// The task-space PID's prediction.
+    pub fn prediction(&self) -> &Prediction {
+        &self.prediction
     }
 
     /// The task-space PID.
@@ -710,15 +765,20 @@ impl ControlLoop {
         let mut estimate = None;
         let mut feedback = Wrench::zeros();
         let mut offsets = [0.0; CABLES];
-        let status = match self.newest {
+        // By reference: the setpoint (about 90 bytes) is copied only where
+        // it is kept (`last_feasible`).
+        let status = match &self.newest {
             Newest::Nothing => SetpointStatus::Stale,
             Newest::Bad => SetpointStatus::Bad,
-            Newest::Good(_, arrived) if now.wrapping_sub(arrived) > self.supervisor.limits().stale_cycles => {
+            Newest::Good(_, arrived)
+                if now.wrapping_sub(*arrived) > self.supervisor.limits().stale_cycles =>
+            {
                 SetpointStatus::Stale
             }
             Newest::Good(setpoint, arrived) => {
+                let arrived = *arrived;
                 let t0 = clock.ticks();
-                let kinematics = self.controller.kinematics(&setpoint);
+                let kinematics = self.controller.kinematics(setpoint);
                 let t1 = clock.ticks();
                 ticks.kinematics = t1.wrapping_sub(t0);
                 // By reference: the kinematics (about 300 bytes) stay where
@@ -739,17 +799,18 @@ impl ControlLoop {
                             (Scheme::TaskSpace, _, Some(Ok(est))) => {
                                 // The integral is frozen while the
                                 // feedback is backed off (anti-windup).
-                                let full = self.feedback_scale >= 1.0;
                                 feedback = task_feedback(
                                     &mut self.task_pid,
                                     self.controller.robot(),
-                                    &setpoint,
+                                    setpoint,
                                     k,
                                     est,
                                     age,
                                     dt,
-                                    closed && full,
-                                ) * self.feedback_scale;
+                                    closed,
+                                    [self.feedback_scale, self.moment_scale],
+                                    &self.prediction,
+                                );
                                 None
                             }
                             (Scheme::JointSpace, Some((lengths, rates)), Some(Ok(_))) => {
@@ -769,13 +830,13 @@ impl ControlLoop {
                             offsets = j;
                         }
                         ticks.feedback = clock.since(t2);
-                        self.controller
-                            .finish(&setpoint, k, &feedback, joint.as_ref(), clock, &mut ticks)
-                            .map(|c| {
+                        self.controller.finish(setpoint, k, &feedback, joint.as_ref(), clock, &mut ticks).map(
+                            |c| {
                                 let mut lengths = [0.0; CABLES];
                                 lengths.copy_from_slice(k.lengths.as_slice());
                                 (c, lengths)
-                            })
+                            },
+                        )
                     }
                 };
                 let cycle = Cycle { result: result.map(|(c, _)| c), ticks };
@@ -786,18 +847,28 @@ impl ControlLoop {
                 match result {
                     Err(Error::Infeasible) if feedback_infeasible => {
                         carried = 0.0;
-                        self.feedback_scale = if self.feedback_scale > FEEDBACK_SCALE_MIN {
-                            0.5 * self.feedback_scale
-                        } else {
-                            0.0
-                        };
+                        self.task_pid.discard_output();
+                        let halve = |s: f32| if s > FEEDBACK_SCALE_MIN { 0.5 * s } else { 0.0 };
+                        match self.back_off {
+                            BackOff::Whole => {
+                                self.feedback_scale = halve(self.feedback_scale);
+                                self.moment_scale = self.feedback_scale;
+                            }
+                            BackOff::ForceFirst => {
+                                self.feedback_scale = halve(self.feedback_scale);
+                                if self.feedback_scale == 0.0 {
+                                    self.moment_scale = 0.0;
+                                }
+                            }
+                        }
                         SetpointStatus::FeedbackInfeasible
                     }
                     Ok((c, lengths)) if c.torques.iter().all(|t| t.is_finite()) => {
                         self.feedback_scale = (self.feedback_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
+                        self.moment_scale = (self.moment_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
                         // The setpoint is feasible whatever the estimate:
                         // the length check and the stand-in plant follow it.
-                        self.last_feasible = Some(setpoint);
+                        self.last_feasible = Some(*setpoint);
                         self.feasible_lengths = Some(lengths);
                         if matches!(estimate, Some(Err(_))) {
                             SetpointStatus::Unobservable
@@ -1004,6 +1075,8 @@ fn task_feedback(
     age: f32,
     dt: f32,
     integrate: bool,
+    scale: [f32; 2],
+    prediction: &Prediction,
 ) -> Wrench {
     use tension_core::nalgebra::Vector3;
     let v = &setpoint.velocity;
@@ -1028,5 +1101,6 @@ fn task_feedback(
         omega_d.z - omega.z,
     ];
     let rc = k.trig.rotation() * robot.platform().com;
-    pid.update_error(&error, &rates, &rc, dt, integrate).unwrap_or_else(|_| Wrench::zeros())
+    pid.update_error(&error, &rates, &rc, dt, integrate, scale, prediction)
+        .unwrap_or_else(|_| Wrench::zeros())
 }

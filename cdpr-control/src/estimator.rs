@@ -46,6 +46,16 @@
 //! `alpha = T / (T + 1 / (2 pi f_c))`. At 50 Hz (`alpha = 0.24` at 1 kHz)
 //! one encoder count (7.7 um on suspended-8) makes at most a 1.8 mm/s
 //! blip, and the phase lag at the 5 Hz control bandwidth is 6 degrees.
+//! Behind the CAN buses (0.83 ms more loop delay) the task-space D-term
+//! through this 50 Hz filter feeds the drum-on-cable mode (about 100 Hz,
+//! the winch's 0.56 kg on the cable's 2e5 N/m) back with more than 90
+//! degrees of lag; there the speed is filtered at 10 Hz
+//! ([`EstimatorSettings::FIELD_BUS`]; `hal-sim`'s `Config::can` and the
+//! firmware's board build): a fifth of the 50 Hz filter's gain at 100 Hz
+//! (0.10 against 0.45), for 27 degrees of lag at 5 Hz instead of 6.
+//! Measured on `hal-sim`'s buses: at 15 Hz and 12 Hz a cable still went
+//! slack near the top of the `track` loop, at 10 Hz none (tensions from
+//! 6.6 N), at 8 Hz the loop's error grew to 1.46 mm.
 //! After a gap (a failed step, a new homing) the first good estimate only
 //! restarts the difference.
 
@@ -85,6 +95,10 @@ impl EstimatorSettings {
     /// (`ControlLoop::set_estimator`).
     pub const DEFAULT: Self =
         Self { period_s: 0.001, cutoff_hz: 50.0, residual_max: 0.001, correction_max: 0.05 };
+
+    /// Behind a field bus (the board's CAN drives): [`Self::DEFAULT`] with
+    /// the speed filtered at 10 Hz (module docs).
+    pub const FIELD_BUS: Self = Self { cutoff_hz: 10.0, ..Self::DEFAULT };
 
     /// The filter's `alpha = T / (T + 1 / (2 pi f_c))`.
     pub fn alpha(&self) -> f32 {

@@ -37,6 +37,45 @@
 //! about the centre of mass for the rotations). `hal-sim/README.md`
 //! explains the bandwidth chosen.
 //!
+//! # Prediction over the loop delay ([`Prediction`], [`predict`])
+//!
+//! Behind a field bus the errors the PID computes are older than the
+//! moment its wrench acts: on the board's CAN buses the positions are
+//! 545 us old at the step and the torques are received 175-400 us into
+//! it, `tau` = 0.83 ms more than with directly wired winches
+//! (`canopen_drives::added_loop_delay_ns` computes it from the bus
+//! schedule; the control loop takes it from its configuration,
+//! `ControlLoop::set_loop_delay`, 0 for the direct path). The PID acts on
+//! the errors predicted `tau` ahead for the rigid body it was designed
+//! for. The feed-forward gives the setpoint's acceleration, so the rate
+//! error changes only by the acceleration `a` of the feedback last carried
+//! (`a = F / m` per base axis, `M / I` per rotation, moment about the
+//! centre of mass):
+//!
+//! ```text
+//! e(t + tau)  = e + e' tau - a tau^2 / 2
+//! e'(t + tau) = e' - a tau
+//! ```
+//!
+//! (`a` is held over `tau`: the torques are a zero-order hold). Its size
+//! is modest by design: at the 5 Hz gains `Kp tau` is 16 N s/m beside
+//! `Kd` = 598 N s/m and `Kd tau / m` = 0.08 of the last force, so it
+//! corrects the phase the delay costs at the crossover (about 4 deg at
+//! 94 rad/s) without a loop of its own (its gain on the last output is
+//! far below 1). The bus's larger trouble, the drum-on-cable mode (about
+//! 100 Hz) fed back through the D-term, is the speed filter's to keep out
+//! (`EstimatorSettings::FIELD_BUS`: the speed at 10 Hz on the buses); see
+//! `hal-sim/README.md`, "On the CAN buses".
+//!
+//! # Back-off
+//!
+//! The control loop scales the force and the moment separately
+//! (`TaskPid::update_error`'s `scale`): where the feed-forward plus the
+//! feedback has no feasible tensions it halves the force alone and keeps
+//! the moment, so the orientation stays held near the tension floor
+//! (`cdpr_control::BackOff::ForceFirst`); each part's integral advances
+//! only while that part is carried whole.
+//!
 //! # Cable-length check
 //!
 //! `ControlLoop::step` compares the winch encoders' cable lengths with the
@@ -128,6 +167,48 @@ fn limit(v: Vector3<f32>, max: f32) -> Vector3<f32> {
     }
 }
 
+/// The loop delay the task-space PID predicts over, with the rigid body
+/// the prediction uses (`TaskPid::update_error`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prediction {
+    /// The delay `tau`, s, beyond the direct path's: from the encoder
+    /// sample to the moment the torque acts.
+    pub delay_s: f32,
+    /// `[1/m x3, 1/I_x, 1/I_y, 1/I_z]`: the platform's mass and principal
+    /// inertia about its centre of mass (1/kg, 1/(kg m^2)).
+    pub inv_mass: [f32; 6],
+}
+
+impl Prediction {
+    /// No prediction (the directly wired winches).
+    pub const NONE: Self = Self { delay_s: 0.0, inv_mass: [0.0; 6] };
+
+    /// Over `delay_s` for a rigid body of `mass` and principal `inertia`
+    /// (`NONE` if the delay is not positive or a mass not positive and
+    /// finite).
+    pub fn new(delay_s: f32, mass: f32, inertia: [f32; 3]) -> Self {
+        let m = [mass, mass, mass, inertia[0], inertia[1], inertia[2]];
+        if !(delay_s.is_finite() && delay_s > 0.0 && m.iter().all(|v| v.is_finite() && *v > 0.0)) {
+            return Self::NONE;
+        }
+        Self { delay_s, inv_mass: m.map(|v| 1.0 / v) }
+    }
+}
+
+/// The errors `tau` seconds on: with `e'' = -a` (`a = accel`, the
+/// acceleration the last applied feedback gives; the feed-forward taken
+/// as exact, so the rate error changes only by it),
+/// `e(tau) = e + e' tau - a tau^2 / 2` and `e'(tau) = e' - a tau`.
+pub fn predict(error: &[f32; 6], rates: &[f32; 6], accel: &[f32; 6], tau: f32) -> ([f32; 6], [f32; 6]) {
+    let mut e = [0.0; 6];
+    let mut r = [0.0; 6];
+    for k in 0..6 {
+        e[k] = error[k] + (rates[k] - 0.5 * accel[k] * tau) * tau;
+        r[k] = rates[k] - accel[k] * tau;
+    }
+    (e, r)
+}
+
 /// The task-space PID with its integral state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TaskPid {
@@ -136,12 +217,15 @@ pub struct TaskPid {
     /// `Ki integral(e)` per axis (already multiplied by the gain, so that a
     /// gain change does not jump the output).
     integral: [f32; 6],
+    /// The last output `[F; M]` (moment about the centre of mass) as
+    /// carried, for the prediction.
+    output: [f32; 6],
 }
 
 impl TaskPid {
     /// A PID with zero integral state.
     pub const fn new(gains: Gains, limits: FeedbackLimits) -> Self {
-        Self { gains, limits, integral: [0.0; 6] }
+        Self { gains, limits, integral: [0.0; 6], output: [0.0; 6] }
     }
 
     /// The gains.
@@ -163,6 +247,18 @@ impl TaskPid {
     /// Fault).
     pub fn reset(&mut self) {
         self.integral = [0.0; 6];
+        self.output = [0.0; 6];
+    }
+
+    /// The last output `[F; M]` as carried (N, N m about the centre of
+    /// mass).
+    pub fn output(&self) -> &[f32; 6] {
+        &self.output
+    }
+
+    /// The last output was not applied (the cycle held its torques).
+    pub fn discard_output(&mut self) {
+        self.output = [0.0; 6];
     }
 
     /// The wrench the cables must add to the feed-forward (base frame,
@@ -190,14 +286,17 @@ impl TaskPid {
         let ew = motion.angular_velocity - measured.angular_velocity;
         let rates = [ev.x, ev.y, ev.z, ew.x, ew.y, ew.z];
         let (_, r) = robot.frame(&measured.pose)?;
-        self.update_error(&e, &rates, &(r * robot.platform().com), dt, integrate)
+        self.update_error(&e, &rates, &(r * robot.platform().com), dt, integrate, [1.0; 2], &Prediction::NONE)
     }
 
     /// The same from the errors themselves: `error = [e_p; e_r]` (m, rad),
     /// `rates = [e_v; e_w]` (m/s, rad/s), `rc` the centre of mass `R c`
     /// in base axes (m). The control loop's task-space scheme calls this
     /// with the estimator's correction (`e = -delta`), which costs no
-    /// kinematics.
+    /// kinematics. `scale` is the fraction of the force and of the moment
+    /// carried (the back-off; each part's integral advances only at 1);
+    /// `prediction` the delay the errors are predicted over first.
+    #[allow(clippy::too_many_arguments)]
     pub fn update_error(
         &mut self,
         error: &[f32; 6],
@@ -205,22 +304,26 @@ impl TaskPid {
         rc: &Vector3<f32>,
         dt: f32,
         integrate: bool,
+        scale: [f32; 2],
+        prediction: &Prediction,
     ) -> Result<Wrench, Error> {
-        let e = error;
-        if !e.iter().chain(rates.iter()).chain(rc.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
+        if !error.iter().chain(rates.iter()).chain(rc.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
             return Err(Error::NonFinite);
         }
+        let accel: [f32; 6] = core::array::from_fn(|k| self.output[k] * prediction.inv_mass[k]);
+        let (e, rates) = predict(error, rates, &accel, prediction.delay_s);
         let g = &self.gains;
         let mut out = [0.0f32; 6];
         for k in 0..6 {
-            if integrate {
+            if integrate && scale[k / 3] >= 1.0 {
                 let max = self.limits.integral_max[k];
                 self.integral[k] = (self.integral[k] + g.ki[k] * e[k] * dt).clamp(-max, max);
             }
             out[k] = g.kp[k] * e[k] + g.kd[k] * rates[k] + self.integral[k];
         }
-        let force = limit(Vector3::new(out[0], out[1], out[2]), self.limits.force_max);
-        let moment = limit(Vector3::new(out[3], out[4], out[5]), self.limits.moment_max);
+        let force = limit(Vector3::new(out[0], out[1], out[2]), self.limits.force_max) * scale[0];
+        let moment = limit(Vector3::new(out[3], out[4], out[5]), self.limits.moment_max) * scale[1];
+        self.output = [force.x, force.y, force.z, moment.x, moment.y, moment.z];
         let moment = moment + rc.cross(&force);
         Ok(Wrench::from([force.x, force.y, force.z, moment.x, moment.y, moment.z]))
     }
@@ -423,5 +526,72 @@ pub fn extrapolate(setpoint: &Setpoint, dt: f32) -> Setpoint {
         pose: setpoint.pose + setpoint.velocity * dt + setpoint.acceleration * (0.5 * dt * dt),
         velocity: setpoint.velocity + setpoint.acceleration * dt,
         acceleration: setpoint.acceleration,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The prediction against the body itself: a rigid body of mass `m`
+    /// pushed by the constant feedback force `F` while the setpoint moves
+    /// at constant speed, integrated in 10 000 small steps (independent
+    /// of the closed form `predict` uses), over the board's 0.8325 ms.
+    #[test]
+    fn the_prediction_follows_a_body_under_the_feedback_force() {
+        let (m, inertia) = (6.34f32, [0.05f32, 0.05, 0.08]);
+        let tau = 832.5e-6f32;
+        let p = Prediction::new(tau, m, inertia);
+        let error = [1.0e-3, -2.0e-3, 0.5e-3, 0.01, -0.02, 0.005];
+        let rates = [0.05, -0.02, 0.1, 0.3, -0.1, 0.2];
+        let output = [40.0, -30.0, 25.0, 4.0, -3.0, 5.0];
+        let accel: [f32; 6] = core::array::from_fn(|k| output[k] * p.inv_mass[k]);
+        let (e, r) = predict(&error, &rates, &accel, tau);
+        let mass = [m, m, m, inertia[0], inertia[1], inertia[2]];
+        for k in 0..6 {
+            // e = x_d - x, e' = v_d - v; x_d moves at v_d, x accelerates at F / m.
+            let (mut x, mut v) = (0.0f64, f64::from(0.7 - rates[k]));
+            let (mut xd, vd) = (f64::from(error[k]), 0.7f64);
+            let n = 10_000;
+            let h = f64::from(tau) / f64::from(n);
+            let a = f64::from(output[k] / mass[k]);
+            for _ in 0..n {
+                x += v * h + 0.5 * a * h * h;
+                v += a * h;
+                xd += vd * h;
+            }
+            let (e_ref, r_ref) = (xd - x, vd - v);
+            assert!((f64::from(e[k]) - e_ref).abs() < 1e-8 + 1e-5 * e_ref.abs(), "{k}: {} vs {e_ref}", e[k]);
+            assert!((f64::from(r[k]) - r_ref).abs() < 1e-6 + 1e-5 * r_ref.abs(), "{k}: {} vs {r_ref}", r[k]);
+        }
+        // Against no prediction, the force's term is visible: 40 N on
+        // 6.34 kg over 0.83 ms is 5.3 mm/s of rate.
+        assert!((r[0] - rates[0]).abs() > 5.0e-3);
+    }
+
+    /// The PID applies its gains to the predicted errors, and predicts
+    /// from the output it carried last.
+    #[test]
+    fn the_pid_acts_on_the_predicted_error() {
+        let gains = Gains::triple_pole(6.34, [0.05, 0.05, 0.08], 31.4, 31.4);
+        let limits = FeedbackLimits { force_max: 1e6, moment_max: 1e6, integral_max: [0.0; 6] };
+        let mut pid = TaskPid::new(gains, limits);
+        let p = Prediction::new(1.0e-3, 6.34, [0.05, 0.05, 0.08]);
+        let e = [1.0e-3, 0.0, 0.0, 0.0, 0.002, 0.0];
+        let r = [0.01, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let rc = Vector3::zeros();
+        let w1 = pid.update_error(&e, &r, &rc, 1e-3, false, [1.0; 2], &p).unwrap();
+        // First call: nothing carried yet, so only the rate moves the error.
+        let e0 = e[0] + r[0] * 1.0e-3;
+        assert!((w1[0] - (gains.kp[0] * e0 + gains.kd[0] * r[0])).abs() < 1e-3, "{w1:?}");
+        let w2 = pid.update_error(&e, &r, &rc, 1e-3, false, [1.0; 2], &p).unwrap();
+        let a = w1[0] / 6.34;
+        let (ep, rp) = predict(&e, &r, &[a, 0.0, 0.0, 0.0, w1[4] / 0.05, 0.0], 1.0e-3);
+        assert!((w2[0] - (gains.kp[0] * ep[0] + gains.kd[0] * rp[0])).abs() < 1e-3, "{w2:?}");
+        assert!((w2[4] - (gains.kp[4] * ep[4] + gains.kd[4] * rp[4])).abs() < 1e-4, "{w2:?}");
+        // The back-off scales the force and the moment apart.
+        let w3 = pid.update_error(&e, &r, &rc, 1e-3, false, [0.0, 1.0], &Prediction::NONE).unwrap();
+        assert_eq!(w3[0], 0.0);
+        assert!(w3[4] > 0.0);
     }
 }

@@ -18,6 +18,8 @@
 //! * [`quadrature`]: 16-bit quadrature counters extended to 32-bit counts
 //!   and a speed, and the direct path (`DirectDrives`: PWM amplifiers and a
 //!   counter per cable) beside the CAN drives of `canopen-drives`;
+//! * [`ls7366r`]: the LS7366R SPI quadrature counter chip, the direct
+//!   path's counter for cables beyond the microcontroller's timers;
 //! * [`encoder`]: encoder counts to cable lengths, and the homing offsets;
 //! * [`estimator`]: the pose and twist estimate from the cable lengths (a
 //!   Gauss-Newton step of the forward kinematics each cycle);
@@ -40,6 +42,7 @@ pub mod encoder;
 pub mod estimator;
 pub mod feedback;
 pub mod link;
+pub mod ls7366r;
 pub mod point_buffer;
 pub mod quadrature;
 pub mod robot;
@@ -49,7 +52,7 @@ pub mod supervisor;
 
 pub use cdpr_protocol as protocol;
 pub use control_loop::{
-    ControlLoop, FrameSource, MethodSet, SliceFrames, StepReport, FEEDBACK_RECOVERY_PER_CYCLE,
+    BackOff, ControlLoop, FrameSource, MethodSet, SliceFrames, StepReport, FEEDBACK_RECOVERY_PER_CYCLE,
     FEEDBACK_SCALE_MIN, FRAME_BUDGET, RECEIVE_BUDGET,
 };
 pub use drives::{WinchDrives, WinchReading};

@@ -322,26 +322,27 @@ impl Link {
     /// source such as the firmware's demo script) arriving in cycle `now`
     /// and returns its event.
     pub fn accept(&mut self, message: HostMessage, now: u32, counters: &mut Counters) -> Option<Event> {
-        let event = match message {
+        // By reference: a setpoint (about 80 bytes) is copied once, into its event.
+        let event = match &message {
             HostMessage::Setpoint(s) => {
                 let bound = self.reference.filter(|_| self.bound);
                 if bound.is_some_and(|r| !newer(s.seq, r.seq)) {
                     counters.reject(Rejection::Order);
                     return None;
                 }
-                if !self.range.contains(&s) {
+                if !self.range.contains(s) {
                     counters.reject(Rejection::Range);
                     return Some(Event::BadSetpoint);
                 }
                 if let (Some(r), Some(limits)) = (bound, self.jumps) {
-                    if !limits.consistent(&r, &s, now.wrapping_sub(r.cycle)) {
+                    if !limits.consistent(&r, s, now.wrapping_sub(r.cycle)) {
                         counters.reject(Rejection::Jump);
                         return Some(Event::BadSetpoint);
                     }
                 }
                 self.reference =
                     Some(Reference { seq: s.seq, pose: s.pose, velocity: s.velocity, cycle: now });
-                Event::Setpoint(Setpoint::from(&s))
+                Event::Setpoint(Setpoint::from(s))
             }
             HostMessage::Enable => Event::Enable,
             HostMessage::Disable => {
@@ -349,8 +350,8 @@ impl Link {
                 Event::Disable
             }
             HostMessage::ClearFault => Event::ClearFault,
-            HostMessage::TelemetryPeriod(p) => Event::TelemetryPeriod(p),
-            HostMessage::SelectMethod(id) => match tension_core::Method::from_wire_id(id) {
+            HostMessage::TelemetryPeriod(p) => Event::TelemetryPeriod(*p),
+            HostMessage::SelectMethod(id) => match tension_core::Method::from_wire_id(*id) {
                 Some(method) => Event::SelectMethod(method),
                 None => {
                     counters.reject(Rejection::Range);
@@ -358,11 +359,11 @@ impl Link {
                 }
             },
             HostMessage::Home(pose) => {
-                if !self.range.contains_pose(&pose) {
+                if !self.range.contains_pose(pose) {
                     counters.reject(Rejection::Range);
                     return None;
                 }
-                Event::Home(crate::setpoint::Pose6::from(pose))
+                Event::Home(crate::setpoint::Pose6::from(*pose))
             }
             HostMessage::Point(p) => {
                 let as_setpoint = cdpr_protocol::Setpoint {
@@ -377,9 +378,9 @@ impl Link {
                 }
                 // Not counted here: the buffer's own rules decide whether
                 // the point is accepted (`ControlLoop` counts it).
-                return Some(Event::Point(p));
+                return Some(Event::Point(*p));
             }
-            HostMessage::SelectFeedback(id) => match crate::feedback::Scheme::from_wire_id(id) {
+            HostMessage::SelectFeedback(id) => match crate::feedback::Scheme::from_wire_id(*id) {
                 Some(scheme) => Event::SelectFeedback(scheme),
                 None => {
                     counters.reject(Rejection::Range);

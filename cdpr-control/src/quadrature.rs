@@ -84,6 +84,11 @@ impl<P: SetDutyCycle, D: OutputPin, B: OutputPin, E: EncoderCounter> DirectDrive
     pub fn new(pwm: PwmDrives<P, D, B>, counters: [E; CABLES], reads_per_second: u32) -> Self {
         Self { pwm, counters, extenders: [Extender::new(); CABLES], reads_per_second }
     }
+
+    /// The counters (to set them up, e.g. [`crate::ls7366r::Ls7366r::configure`]).
+    pub fn counters_mut(&mut self) -> &mut [E; CABLES] {
+        &mut self.counters
+    }
 }
 
 impl<P: SetDutyCycle, D: OutputPin, B: OutputPin, E: EncoderCounter> WinchDrives

@@ -565,6 +565,45 @@ fn an_infeasible_feedback_wrench_backs_off_and_recovers() {
     assert!(scales.iter().all(|&s| s < 100), "{scales:?}");
 }
 
+/// The moment of the first cycle that solves after the platform is put
+/// 4 mm along x and 0.01 rad about z off the setpoint, backing off `how`.
+fn moment_after_back_off(how: cdpr_control::BackOff) -> (u8, f32) {
+    let mut rig = Rig::homed();
+    rig.control.set_tracking_limit(None);
+    rig.control.set_back_off(how);
+    let pid = unbounded_task_pid(&rig.control);
+    rig.control.set_task_pid(pid);
+    rig.control.receive(HostMessage::TelemetryPeriod(1));
+    rig.enable(Scheme::TaskSpace);
+    rig.step_at(POSE);
+    let mut off = POSE;
+    off[0] += 0.004;
+    off[5] -= 0.01;
+    rig.set_lengths(&lengths_at(&rig.control, off));
+    for _ in 0..10 {
+        let r = rig.step_at(POSE);
+        if r.solved.unwrap().result.is_ok() {
+            return (r.telemetry.unwrap().feedback_scale, r.feedback[5]);
+        }
+    }
+    panic!("no cycle solved");
+}
+
+#[test]
+fn the_back_off_keeps_the_moment_feedback() {
+    // The same force fraction either way; the moment whole only when the
+    // force backs off first (rc x F is small beside it).
+    let (whole_scale, whole) = moment_after_back_off(cdpr_control::BackOff::Whole);
+    let (first_scale, kept) = moment_after_back_off(cdpr_control::BackOff::ForceFirst);
+    assert_eq!(whole_scale, first_scale);
+    assert!(whole_scale > 0 && whole_scale < 100, "{whole_scale}");
+    assert!(kept > 0.0 && whole > 0.0, "{kept} {whole}");
+    let ratio = kept / whole;
+    let expected = 100.0 / f32::from(whole_scale);
+    println!("force at {whole_scale} %: moment {kept} N m kept, {whole} N m scaled with the force");
+    assert!((ratio - expected).abs() < 0.25 * expected, "{kept} / {whole}: {ratio} vs {expected}");
+}
+
 #[test]
 fn a_setpoint_infeasible_by_itself_holds_despite_the_backing_off() {
     let mut rig = Rig::homed();

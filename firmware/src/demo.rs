@@ -212,12 +212,15 @@ struct LoopResults<'a> {
     period_ticks: u64,
 }
 
-/// The scripted run; never returns (exits through semihosting). `inject`:
-/// the fault the `inject-*` programs provoke.
-pub async fn run(board: &mut Board, inject: Option<Inject>) -> ! {
+/// The scripted run; never returns (exits through semihosting). `rig`: the
+/// CiA 402 layer and its drive models for the measured step
+/// ([`loopback::LAYER_IN_STEP`]; the program's `init` builds it in static
+/// memory), `None` for the board's drives alone. `inject`: the fault the
+/// `inject-*` programs provoke.
+pub async fn run(board: &mut Board, rig: Option<&mut LoopbackRig>, inject: Option<Inject>) -> ! {
     let mut flags = announce(board);
     board.place_stand_in(DEMO.script(0).pose.into());
-    let mut results = realtime_loop(board, inject).await;
+    let mut results = realtime_loop(board, rig, inject).await;
     // Where the worst step and solve were (the samples are in cycle order
     // until sorted; the solver's only for cycles that solved).
     let worst =
@@ -306,18 +309,14 @@ fn announce(board: &Board) -> i32 {
 
 /// The real-time loop over the trajectory, on the product's periodic
 /// release.
-async fn realtime_loop(board: &mut Board, inject: Option<Inject>) -> LoopResults<'static> {
+async fn realtime_loop(
+    board: &mut Board,
+    rig: Option<&mut LoopbackRig>,
+    inject: Option<Inject>,
+) -> LoopResults<'static> {
     let Board { clock, drives: board_drives, control, .. } = board;
     // The CiA 402 layer in front of the board's drives when the build asks
     // for it (`loopback::LAYER_IN_STEP`), started (untimed) before the run.
-    let rig = if loopback::LAYER_IN_STEP {
-        let Some(rig) = cortex_m::singleton!(: LoopbackRig = loopback::rig()) else {
-            panic!("drive models taken twice");
-        };
-        Some(rig)
-    } else {
-        None
-    };
     let mut drives = DemoDrives { board: board_drives, rig };
     if !drives.start() {
         defmt::println!("drive layer: the drives did not start (rated torque in the robot file?)");
@@ -730,6 +729,11 @@ fn replay_forward_kinematics(clock: &Tim2Counter, samples: &mut Samples) -> Spre
 /// line states what the step's worst plus the layer's worst come to.
 fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32) {
     use cdpr_control::{WinchDrives, WinchReading};
+    if loopback::LAYER_IN_STEP {
+        // A second rig would not fit the stack limit beside the first.
+        defmt::println!("the drive layer ran inside the measured step above (not replayed alone)");
+        return;
+    }
     samples.clear();
     // In static memory: 6.4 KB on the stack took the demo's high-water
     // mark from 9 to 15 KB (the limit is 16 KB).
@@ -774,16 +778,12 @@ fn replay_drive_layer(clock: &Tim2Counter, samples: &mut Samples, step_max: u32)
         s.count,
         errors,
     );
-    if loopback::LAYER_IN_STEP {
-        defmt::println!("the drive layer ran inside the measured step above");
-    } else {
-        defmt::println!(
-            "the demo's worst step {=u32} + the layer's worst = {=u32} (budget {=u32}; the step with the layer inside: CDPR_DEMO_CAN_LAYER=1 cargo xtask run)",
-            step_max,
-            step_max + s.max,
-            cdpr_demo::BUDGET,
-        );
-    }
+    defmt::println!(
+        "the demo's worst step {=u32} + the layer's worst = {=u32} (budget {=u32}; the step with the layer inside: CDPR_DEMO_CAN_LAYER=1 cargo xtask run)",
+        step_max,
+        step_max + s.max,
+        cdpr_demo::BUDGET,
+    );
 }
 
 /// Cycles of each kind of flood [`receive_flood`] times.

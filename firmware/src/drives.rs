@@ -2,11 +2,13 @@
 //!
 //! On the real STM32F405 (`board` feature) the winches are CiA 402 servo
 //! drives on CAN1 and CAN2 (`canopen_drives::CanDrives` over
-//! [`crate::can`]): start-up, the state machine, torques out and
+//! `crate::can`): start-up, the state machine, torques out and
 //! positions in every cycle, the drives' faults as `Reason::Drive`; the
 //! brakes are the drives' brake outputs, and [`emergency_stop`] writes
 //! quick stop, zero torque and NMT pre-operational straight into the
-//! CAN mailboxes.
+//! CAN mailboxes. With the `direct` feature they are PWM amplifiers and
+//! quadrature counters instead (`crate::direct`, the one `BoardDrives`
+//! of that build).
 //!
 //! The QEMU board has no drives (QEMU models no bxCAN), so the commands
 //! are kept (the last one) and counted, and the encoders are a stand-in
@@ -28,11 +30,15 @@ static LAST_TORQUES: [AtomicU32; CABLES] = [const { AtomicU32::new(0) }; CABLES]
 static BRAKES: AtomicBool = AtomicBool::new(true);
 
 /// The CiA 402 drives on the board's two CAN controllers.
-#[cfg(feature = "board")]
-pub type CanBus = canopen_drives::CanDrives<
+#[cfg(all(feature = "board", not(feature = "direct")))]
+pub type BoardDrives = canopen_drives::CanDrives<
     crate::can::BoardPort<crate::can::Can1>,
     crate::can::BoardPort<crate::can::Can2>,
 >;
+
+/// The direct path: PWM amplifiers and quadrature counters (`direct`).
+#[cfg(feature = "direct")]
+pub type BoardDrives = crate::direct::DirectBoardDrives;
 
 /// The winch drives.
 pub struct Drives {
@@ -40,9 +46,9 @@ pub struct Drives {
     /// The encoders' stand-in (QEMU only; `None` until placed).
     #[cfg(not(feature = "board"))]
     stand_in: Option<cdpr_demo::winches::LagWinches>,
-    /// The drives on the buses (board).
+    /// The board's drives (the CAN buses, or the direct path).
     #[cfg(feature = "board")]
-    bus: Option<CanBus>,
+    bus: Option<BoardDrives>,
 }
 
 impl Drives {
@@ -57,9 +63,9 @@ impl Drives {
         }
     }
 
-    /// The drives on the CAN buses (board).
+    /// The board's drives (the CAN buses, or with `direct` the PWM path).
     #[cfg(feature = "board")]
-    pub fn on_can(bus: CanBus) -> Self {
+    pub fn on_board(bus: BoardDrives) -> Self {
         Self { writes: 0, bus: Some(bus) }
     }
 
@@ -114,9 +120,9 @@ pub enum DriveError {
     /// No encoder to read (QEMU before the stand-in is placed; the board
     /// without its buses).
     NoEncoders,
-    /// The CAN drives' error (board).
+    /// The board's drives' error (the CAN drives, or the direct path).
     #[cfg(feature = "board")]
-    Can(canopen_drives::CanDrivesError),
+    Board(<BoardDrives as WinchDrives>::Error),
 }
 
 impl WinchDrives for Drives {
@@ -132,7 +138,7 @@ impl WinchDrives for Drives {
         self.writes = self.writes.wrapping_add(1);
         #[cfg(feature = "board")]
         if let Some(bus) = &mut self.bus {
-            return bus.apply(torques).map_err(DriveError::Can);
+            return bus.apply(torques).map_err(DriveError::Board);
         }
         Ok(())
     }
@@ -144,7 +150,7 @@ impl WinchDrives for Drives {
         BRAKES.store(engaged, Ordering::Relaxed);
         #[cfg(feature = "board")]
         if let Some(bus) = &mut self.bus {
-            return bus.set_brakes(engaged).map_err(DriveError::Can);
+            return bus.set_brakes(engaged).map_err(DriveError::Board);
         }
         Ok(())
     }
@@ -160,24 +166,24 @@ impl WinchDrives for Drives {
         }
         #[cfg(feature = "board")]
         if let Some(bus) = &mut self.bus {
-            return bus.read(readings).map_err(DriveError::Can);
+            return bus.read(readings).map_err(DriveError::Board);
         }
         let _ = readings;
         Err(DriveError::NoEncoders)
     }
 
     fn failed_drive(&self, error: &DriveError) -> Option<usize> {
-        match (error, self.can()) {
+        match (error, self.board()) {
             #[cfg(feature = "board")]
-            (DriveError::Can(e), Some(bus)) => bus.failed_drive(e),
+            (DriveError::Board(e), Some(bus)) => bus.failed_drive(e),
             _ => None,
         }
     }
 
     fn drive_fault(&self, error: &DriveError) -> Option<cdpr_control::protocol::DriveFault> {
-        match (error, self.can()) {
+        match (error, self.board()) {
             #[cfg(feature = "board")]
-            (DriveError::Can(e), Some(bus)) => bus.drive_fault(e),
+            (DriveError::Board(e), Some(bus)) => bus.drive_fault(e),
             _ => None,
         }
     }
@@ -191,15 +197,15 @@ impl WinchDrives for Drives {
 }
 
 impl Drives {
-    /// The CAN drives, if any (none under QEMU).
+    /// The board's drives, if any (none under QEMU).
     #[cfg(feature = "board")]
-    fn can(&self) -> Option<&CanBus> {
+    fn board(&self) -> Option<&BoardDrives> {
         self.bus.as_ref()
     }
 
-    /// The CAN drives, if any (none under QEMU).
+    /// The board's drives, if any (none under QEMU).
     #[cfg(not(feature = "board"))]
-    fn can(&self) -> Option<&()> {
+    fn board(&self) -> Option<&()> {
         None
     }
 }
@@ -229,6 +235,9 @@ pub fn emergency_stop() {
     // The drives' quick stop over both buses (their brakes engage as they
     // leave "operation enabled"); a drive that misses it stops on its own
     // when its RPDO timeout passes with no board (5 ms).
-    #[cfg(feature = "board")]
+    #[cfg(all(feature = "board", not(feature = "direct")))]
     crate::can::emergency_stop(&crate::robot::drive_configs());
+    // The direct path: zero duty, brake pin engaged.
+    #[cfg(feature = "direct")]
+    crate::direct::emergency_stop();
 }

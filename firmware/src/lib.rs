@@ -17,7 +17,9 @@
 //!   every control loop runs on;
 //! * [`clock`]: TIM2 as the tick counter that times the steps;
 //! * [`drives`]: the winch drives and the emergency stop (on the board
-//!   the CiA 402 drives on CAN1 and CAN2 through [`can`]); [`serial`]:
+//!   the CiA 402 drives on CAN1 and CAN2 through `can`, or with the
+//!   `direct` feature PWM amplifiers and quadrature counters through
+//!   `direct`); [`serial`]:
 //!   USART1; [`stack`]: stack painting; [`robot`]: the robot's constants,
 //!   generated from its robot file;
 //! * [`demo`]: the demo run (the `demo` and `inject-*` programs), whose
@@ -30,10 +32,12 @@
 #![no_std]
 
 pub mod bsp;
-#[cfg(feature = "board")]
+#[cfg(all(feature = "board", not(feature = "direct")))]
 pub mod can;
 pub mod clock;
 pub mod demo;
+#[cfg(feature = "direct")]
+pub mod direct;
 pub mod drives;
 pub mod loopback;
 pub mod mono;
@@ -89,7 +93,7 @@ pub trait CanInterrupt {
 
 impl CanInterrupt for () {}
 
-#[cfg(feature = "board")]
+#[cfg(all(feature = "board", not(feature = "direct")))]
 impl<C: can::Controller> CanInterrupt for can::CanIrq<C> {
     fn on_transmit(&mut self) {
         can::CanIrq::on_transmit(self);
@@ -100,16 +104,16 @@ impl<C: can::Controller> CanInterrupt for can::CanIrq<C> {
 }
 
 /// CAN1's interrupt side.
-#[cfg(feature = "board")]
+#[cfg(all(feature = "board", not(feature = "direct")))]
 pub type Can1Irq = can::CanIrq<can::Can1>;
 /// CAN2's interrupt side.
-#[cfg(feature = "board")]
+#[cfg(all(feature = "board", not(feature = "direct")))]
 pub type Can2Irq = can::CanIrq<can::Can2>;
-/// No CAN under QEMU.
-#[cfg(not(feature = "board"))]
+/// No CAN under QEMU or on the direct path.
+#[cfg(any(not(feature = "board"), feature = "direct"))]
 pub type Can1Irq = ();
-/// No CAN under QEMU.
-#[cfg(not(feature = "board"))]
+/// No CAN under QEMU or on the direct path.
+#[cfg(any(not(feature = "board"), feature = "direct"))]
 pub type Can2Irq = ();
 
 impl Board {
@@ -142,9 +146,37 @@ impl Board {
             Ok(scale) => control.set_encoder(scale),
             Err(e) => panic!("robot file's encoders rejected: {:?}", e),
         }
+        // On the CAN buses the task-space PID predicts over the delay they
+        // add (the step's frames queued about 0.1 ms in, 4 drives a bus at
+        // 1 Mbit/s: 0.83 ms) and its D-term takes the estimator's speed
+        // through a 10 Hz filter (`EstimatorSettings::FIELD_BUS`;
+        // `hal-sim/README.md`, "On the CAN buses"). The direct path reads
+        // and writes its winches in the step: no delay added.
+        #[cfg(all(feature = "board", not(feature = "direct")))]
+        {
+            control.set_loop_delay(canopen_drives::BOARD_LOOP_DELAY_NS as f32 * 1e-9);
+            control.set_estimator(cdpr_control::estimator::EstimatorSettings::FIELD_BUS);
+        }
         #[cfg(not(feature = "board"))]
         let drives = Drives::new();
-        #[cfg(feature = "board")]
+        #[cfg(feature = "direct")]
+        let (drives, can) = {
+            let peripherals = direct::DirectPeripherals {
+                tim1: dp.TIM1,
+                tim3: dp.TIM3,
+                tim4: dp.TIM4,
+                tim8: dp.TIM8,
+                tim9: dp.TIM9,
+                tim10: dp.TIM10,
+                tim11: dp.TIM11,
+                tim12: dp.TIM12,
+                tim13: dp.TIM13,
+                tim14: dp.TIM14,
+                spi2: dp.SPI2,
+            };
+            (Drives::on_board(direct::start(peripherals, &dp.RCC, robot::TORQUE_MAX)), ((), ()))
+        };
+        #[cfg(all(feature = "board", not(feature = "direct")))]
         let (drives, can) = {
             use heapless::spsc::Queue;
             let queues = match (
@@ -163,7 +195,7 @@ impl Board {
                 robot::drive_configs(),
                 canopen_drives::Timing::DEFAULT,
             );
-            (Drives::on_can(bus), irq)
+            (Drives::on_board(bus), irq)
         };
         let board = Self { clock, calibration_ticks, drives, control };
         #[cfg(not(feature = "board"))]

@@ -58,6 +58,14 @@ pub fn rig() -> LoopbackRig {
     LoopbackRig::new(crate::robot::drive_configs(), rated_mnm, Timing::DEFAULT)
 }
 
+/// The rig for the measured step, built in `slot` (a static of the
+/// program's `init`, so that its 6.4 KB never sit on the control task's
+/// stack), when the build asks for the layer in the step
+/// ([`LAYER_IN_STEP`]); `None` otherwise.
+pub fn rig_for_the_step(slot: &'static mut Option<LoopbackRig>) -> Option<&'static mut LoopbackRig> {
+    LAYER_IN_STEP.then(|| slot.insert(rig()))
+}
+
 impl DemoDrives<'_> {
     /// The drives' start-up, untimed (before the run: an operator homes
     /// and enables once the drives are up); whether every drive came up.

@@ -6,10 +6,13 @@
 //! with interrupts off, warm starts carried from pose to pose as in the
 //! loop. It prints, per method, the worst solve, the pose that gives it
 //! and its kind, and the outcomes; then the barycenter's analytical bound
-//! ([`Bound`]), and exits with [`cdpr_demo::exit::PASS`] when every
-//! method's worst is within its regression ceiling
-//! ([`cdpr_demo::stress::CEILINGS`]) and the barycenter's within its
-//! bound, [`cdpr_demo::exit::FAIL`] otherwise. Each method's worst is also
+//! ([`Bound`]), and exits with [`cdpr_demo::exit::PASS`] when the
+//! barycenter's worst is within its bound and, in the short run (at most
+//! [`cdpr_demo::stress::SHORT_RUN`] poses, the test command's), every
+//! method's worst within its regression ceiling
+//! ([`cdpr_demo::stress::CEILINGS`], measured over those poses: a longer
+//! run meets harder poses, and prints the ceilings without judging by
+//! them), [`cdpr_demo::exit::FAIL`] otherwise. Each method's worst is also
 //! set against the figure the board's offer comes from
 //! (`cdpr_demo::methods::COSTS`, the demo trajectory's worst), printed as
 //! "within" or "above".
@@ -177,11 +180,13 @@ pub fn run(board: &mut Board, poses: u32) -> ! {
         }
     }
     let mut pass = true;
+    // The ceilings are the short run's (its poses' worst plus a margin).
+    let judged = poses <= cdpr_demo::stress::SHORT_RUN;
     for (m, method) in Method::ALL.iter().enumerate() {
         let w = &worst[m];
         let stated = methods::stated_worst(*method);
         let limit = ceiling(*method);
-        pass &= w.cost <= limit;
+        pass &= !judged || w.cost <= limit;
         let c = counts[m];
         defmt::println!(
             "stress {=str}: worst {=u32} {=str} at pose {=u32} ({=str}, {=str}) [x y z rx ry rz] = {} extra {}; ceiling {=u32}: {=str}; the offer table's worst {=u32}: {=str}; {=u32} ok, {=u32} infeasible, {=u32} other; worst by kind (uniform, border, angle limits, extra wrench, sequence, jumps) {}",
@@ -194,7 +199,11 @@ pub fn run(board: &mut Board, poses: u32) -> ! {
             w.pose,
             w.extra,
             limit,
-            if w.cost <= limit { "within" } else { "OVER" },
+            match (w.cost <= limit, judged) {
+                (true, _) => "within",
+                (false, true) => "OVER",
+                (false, false) => "above (the short run's ceiling: not judged beyond it)",
+            },
             stated,
             if w.cost <= stated { "within" } else { "above" },
             c.ok,

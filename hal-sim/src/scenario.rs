@@ -20,6 +20,7 @@
 
 use cdpr_control::controller::FrictionCompensation;
 use cdpr_control::encoder::EncoderScale;
+use cdpr_control::estimator::EstimatorSettings;
 use cdpr_control::feedback::{FeedbackLimits, Gains, Scheme, TaskPid};
 use cdpr_control::link::SetpointRange;
 use cdpr_control::protocol::{
@@ -420,6 +421,12 @@ pub struct Config {
     /// The winches behind CiA 402 drives on two simulated CAN buses
     /// ([`crate::can`]) instead of read and written directly.
     pub can: bool,
+    /// The estimator's settings.
+    pub estimator: EstimatorSettings,
+    /// How the task-space feedback backs off.
+    pub back_off: cdpr_control::BackOff,
+    /// The loop delay the task-space PID predicts over, s.
+    pub loop_delay: f32,
 }
 
 /// The controller's friction model: 80 % of the simulated winches'
@@ -462,12 +469,26 @@ impl Config {
             cable: CableModel::DEFAULT,
             friction: Some(FRICTION_ESTIMATE),
             can: false,
+            estimator: EstimatorSettings::DEFAULT,
+            back_off: cdpr_control::BackOff::ForceFirst,
+            loop_delay: 0.0,
         }
     }
 
     /// [`Config::standard`] with the winches on the CAN buses.
     pub fn can() -> Self {
-        Self { can: true, ..Self::standard() }
+        let delay_ns = canopen_drives::added_loop_delay_ns(
+            crate::can::STEP_NS as u32,
+            4,
+            1_000_000,
+            canopen_drives::Timing::DEFAULT.cycle_hz,
+        );
+        Self {
+            can: true,
+            loop_delay: delay_ns as f32 * 1e-9,
+            estimator: EstimatorSettings::FIELD_BUS,
+            ..Self::standard()
+        }
     }
 }
 
@@ -630,6 +651,9 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     control.controller_mut().set_friction(config.friction);
     control.set_encoder(scale);
     control.set_task_pid(TaskPid::new(config.gains, config.limits));
+    control.set_estimator(config.estimator);
+    control.set_back_off(config.back_off);
+    control.set_loop_delay(config.loop_delay);
     control.set_tracking_limit(Some(config.length_limit));
     let mut link = SerialLink::at_baud(config.baud);
     let mut next_point_ms = 0u32;

@@ -46,15 +46,28 @@ fn the_hold_and_the_loop_keep_their_bounds_on_the_can_buses() {
     // Joint space: the loop completes within the direct run's bounds
     // (measured 4.10 mm, 0.78 deg, tensions from 2.9 N); the residual is
     // 0.54 mm (0.32 mm direct): the positions are 0.55 ms old.
-    let s = scenario("track").with_scheme(Scheme::JointSpace);
-    let o = run(&s, &config).unwrap();
+    track_within(&config, Scheme::JointSpace, 5.0e-3, 0.6e-3);
+    // Task space (`Config::can`: the prediction over the buses' 0.83 ms,
+    // the 10 Hz speed filter, the back-off that keeps the moment): the
+    // loop completes within the joint-space bounds or tighter (measured
+    // 1.08 mm, 0.58 deg, residual 0.36 mm, tensions from 6.6 N). Before,
+    // it went Holding `estimator` at 3.79 s and Fault `tracking`.
+    track_within(&config, Scheme::TaskSpace, 1.5e-3, 0.5e-3);
+}
+
+/// `track` with `scheme` on `config` completes Enabled throughout, within
+/// `position` (m) and 1 deg, the estimate's residual within `residual`
+/// (m), every cable above 2 N.
+fn track_within(config: &Config, scheme: Scheme, position: f64, residual: f64) {
+    let s = scenario("track").with_scheme(scheme);
+    let o = run(&s, config).unwrap();
     let f = figures(&o, 0.0);
     report(&s.name, &f);
     assert_eq!(states(&o), vec![(State::Enabled, Reason::None, Reason::None)], "{}", s.name);
-    assert!(f.position_error < 5.0e-3, "{}: {} m", s.name, f.position_error);
+    assert!(f.position_error < position, "{}: {} m", s.name, f.position_error);
     assert!(f.rotation_error < 1.0f64.to_radians(), "{}: {} rad", s.name, f.rotation_error);
-    assert!(f.residual < 0.6e-3, "{}: {}", s.name, f.residual);
-    assert!(f.tension_min > 2.0, "{f:?}");
+    assert!(f.residual < residual, "{}: {}", s.name, f.residual);
+    assert!(f.tension_min > 2.0, "{}: {f:?}", s.name);
 }
 
 /// (Joint space: the scheme that tracks on the buses.) Fault `drive`

@@ -186,7 +186,7 @@ fn static_fault(s: &Scenario, expected: &[(State, Reason, Reason)]) -> Figures {
 fn cable_break_faults_within_50_ms_and_the_brakes_hold() {
     // The broken cable's winch reels in: its length stops fitting the
     // pose the others give, and the estimator's residual passes 1 mm
-    // (Fault `estimator`: +19 ms task space, +28 ms joint space; with the
+    // (Fault `estimator`: +20 ms task space, +28 ms joint space; with the
     // 5 mm residual limit and a hold first, these were +85 and +93 ms).
     // The true-pose simulator's bounds hold but one: in task space the
     // platform moves 4.0-5.5 mm (runs that differ only in the link's

@@ -50,7 +50,10 @@ use std::{
     os::unix::process::CommandExt,
     path::Path,
     process::{Child, Command, Stdio},
-    sync::{Arc, Mutex},
+    sync::{
+        atomic::{AtomicU32, Ordering},
+        Arc, Mutex,
+    },
     thread,
     time::{Duration, Instant},
 };
@@ -108,6 +111,9 @@ struct Session {
     params: Params,
     /// The host's clock of the stream being sent, held to the board's.
     pacer: Pacer,
+    /// The largest stack high-water mark the firmware logged (bytes; it
+    /// logs one at every state change).
+    stack: Arc<AtomicU32>,
 }
 
 /// The host's clock of a stream, held to the board's: the host sends a
@@ -161,10 +167,15 @@ impl Session {
             .process_group(0)
             .spawn()
             .map_err(|e| format!("cannot start qemu-run: {e}"))?;
-        // The firmware's own log, prefixed.
+        // The firmware's own log, prefixed; its stack high-water marks kept.
+        let stack = Arc::new(AtomicU32::new(0));
         if let Some(out) = qemu.stdout.take() {
+            let stack = Arc::clone(&stack);
             thread::spawn(move || {
                 for line in BufReader::new(out).lines().map_while(Result::ok) {
+                    if let Some(bytes) = stack_mark(&line) {
+                        stack.fetch_max(bytes, Ordering::Relaxed);
+                    }
                     println!("    firmware| {line}");
                 }
             });
@@ -223,8 +234,16 @@ impl Session {
                 }
             }
         });
-        let session =
-            Self { stream, received, qemu, seq: 0, sent: HashMap::new(), params, pacer: Pacer::default() };
+        let session = Self {
+            stream,
+            received,
+            qemu,
+            seq: 0,
+            sent: HashMap::new(),
+            params,
+            pacer: Pacer::default(),
+            stack,
+        };
         // USART1 drops what arrives before the firmware enables it: wait for
         // the first telemetry (sent every 10 cycles from start-up).
         if session.wait_for(0, Duration::from_secs(30), |_| true).is_none() {
@@ -552,6 +571,8 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
     results.insert(2, ("streamed trajectory: tensions and torques match the host's f64".into(), check));
     results.insert(3, estimates(&tracking_sent, &tracking));
 
+    results.push(product_stack(s.stack.load(Ordering::Relaxed)));
+
     // A session whose QEMU stalled is restarted whatever its checks said:
     // its timings are not the firmware's.
     s.stalled()?;
@@ -560,6 +581,22 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
         results.push(("telemetry frames decode on the host".into(), Err(format!("{garbage} bad frames"))));
     }
     Ok(())
+}
+
+/// The bytes of a firmware log line's "stack high-water mark N bytes".
+fn stack_mark(line: &str) -> Option<u32> {
+    let rest = line.split("stack high-water mark ").nth(1)?;
+    rest.split(' ').next()?.parse().ok()
+}
+
+/// The product's deepest stack over the whole session (its log's marks)
+/// within the limit the demo is held to: the memory check reserves that
+/// much beside the static RAM.
+fn product_stack(used: u32) -> Check {
+    let limit = crate::firmware::STACK_LIMIT;
+    let figures = format!("the product's stack high-water mark {used} bytes (limit {limit})");
+    let check = if used > 0 && used <= limit { Ok(figures) } else { Err(figures) };
+    ("the product's stack stays within the limit (stack painting)".into(), check)
 }
 
 /// Largest distance (m) of the board's pose estimate from the setpoint
@@ -1028,4 +1065,20 @@ fn method_over_the_link(
             Ok(c) => Ok(format!("{} samples, worst |t - t_host| {:.2e} N; {session}", c.samples, c.worst_tension)),
         },
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_the_stack_mark_of_a_state_change_line() {
+        let line = "cycle 140: Disabled -> Enabled (None); drives [0.0] N m, brakes false; counters Counters { accepted: 11 }; stack high-water mark 15856 bytes";
+        assert_eq!(stack_mark(line), Some(15_856));
+        assert_eq!(stack_mark("cycle 1: Disabled -> Enabled"), None);
+        assert_eq!(stack_mark("stack high-water mark lots bytes"), None);
+        assert!(product_stack(15_856).1.is_ok());
+        assert!(product_stack(crate::firmware::STACK_LIMIT + 4).1.is_err());
+        assert!(product_stack(0).1.is_err(), "no mark logged is no pass");
+    }
 }

@@ -58,7 +58,7 @@ const MIN_CYCLES: u32 = 2_000;
 /// Longest a firmware run may take once built (it needs a few seconds).
 const RUN_TIMEOUT: Duration = Duration::from_secs(300);
 /// Limit on the worst stack depth the demo measures (stack painting), bytes.
-const STACK_LIMIT: u32 = 16 * 1024;
+pub(crate) const STACK_LIMIT: u32 = 16 * 1024;
 /// The chip's flash and RAM (STM32F405: 1 MiB flash; `memory.x` gives the
 /// firmware 112 KiB of the 128 KiB main SRAM).
 const FLASH_BYTES: u64 = 1024 * 1024;

@@ -226,7 +226,11 @@ fn test() {
     tally.add(check("clippy (host crates)", cargo, &["clippy", "--all-targets", "--", "-D", "warnings"]));
     // The firmware's library and every program (product, demo, fault
     // injection), with each board's support module.
-    for (board, features) in [("QEMU netduinoplus2", ""), ("STM32F405 board", "board")] {
+    for (board, features) in [
+        ("QEMU netduinoplus2", ""),
+        ("STM32F405 board, CAN drives", "board"),
+        ("STM32F405 board, direct PWM path", "direct"),
+    ] {
         tally.add(check(
             &format!("clippy (firmware library and programs, {board}, thumbv7em-none-eabihf)"),
             cargo,

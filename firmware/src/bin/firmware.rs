@@ -34,7 +34,9 @@ mod app {
 
     #[local]
     struct Local {
-        board: Board,
+        /// In `init`'s static slot: the board (about 5 KB with the control
+        /// loop) is not moved through `init`'s return on the stack.
+        board: &'static mut Board,
         rx: FrameQueue,
         tx: Producer<'static, u8>,
         receiver: Receiver,
@@ -44,9 +46,11 @@ mod app {
     #[init(local = [
         rx_queue: Queue<LineFrame, RX_QUEUE> = Queue::new(),
         tx_queue: Queue<u8, TX_QUEUE> = Queue::new(),
+        board_slot: Option<Board> = None,
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        let (mut board, rest) = Board::start(cx.device);
+        let (board, rest) = Board::start(cx.device);
+        let board = cx.local.board_slot.insert(board);
         // QEMU: the encoders' stand-in rests where the demo trajectory
         // starts (the pose the end-to-end test homes with).
         board.place_stand_in(firmware::robot::DEMO.setpoint(0).pose.into());
@@ -115,7 +119,7 @@ mod app {
     /// The 1 kHz control loop.
     #[task(priority = 2, local = [board, rx, tx])]
     async fn control(cx: control::Context) {
-        let Board { clock, drives, control, .. } = cx.local.board;
+        let Board { clock, drives, control, .. } = &mut **cx.local.board;
         let (rx, tx) = (cx.local.rx, cx.local.tx);
         defmt::println!(
             "{=str} cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str}); serial link on USART1, disabled until Enable",

@@ -7,6 +7,7 @@
 
 #[rtic::app(device = stm32f4::stm32f405, dispatchers = [SPI1])]
 mod app {
+    use canopen_drives::model::LoopbackRig;
     use firmware::demo::Inject;
     use firmware::Board;
 
@@ -15,17 +16,26 @@ mod app {
 
     #[local]
     struct Local {
-        board: Board,
+        /// In `init`'s static slot (not moved through `init`'s return).
+        board: &'static mut Board,
+        /// The CiA 402 layer and its drive models for the measured step
+        /// (`CDPR_DEMO_CAN_LAYER` builds), also in a static slot.
+        rig: Option<&'static mut LoopbackRig>,
     }
 
-    #[init]
+    #[init(local = [
+        board_slot: Option<Board> = None,
+        rig_slot: Option<LoopbackRig> = None,
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let (board, rest) = Board::start(cx.device);
+        let board = cx.local.board_slot.insert(board);
+        let rig = firmware::loopback::rig_for_the_step(cx.local.rig_slot);
         Board::start_watchdog(&rest.iwdg);
         if control::spawn().is_err() {
             panic!("control task already spawned");
         }
-        (Shared {}, Local { board })
+        (Shared {}, Local { board, rig })
     }
 
     #[idle]
@@ -34,8 +44,8 @@ mod app {
     }
 
     /// The 1 kHz control loop on the scripted trajectory.
-    #[task(priority = 2, local = [board])]
+    #[task(priority = 2, local = [board, rig])]
     async fn control(cx: control::Context) {
-        firmware::demo::run(cx.local.board, Some(Inject::Panic)).await
+        firmware::demo::run(cx.local.board, cx.local.rig.as_deref_mut(), Some(Inject::Panic)).await
     }
 }

@@ -299,6 +299,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
     /// Gradient, `H step_p` and the constraints' part of the reduced Hessian
     /// `Z^T H Z` (into `hr`, cleared first), each user callback evaluated
     /// once.
+    #[inline(never)]
     fn newton_terms<const N: usize>(
         &self,
         fact: &WrenchFactorization<T, N, M>,
@@ -423,6 +424,7 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
 
 /// The Newton step `step_p + Z dl` with `(Z^T H Z) dl = -Z^T (grad + H step_p)`
 /// (`hr` holds the constraints' part of `Z^T H Z` on entry).
+#[inline(never)]
 fn newton_step<T: Real, const N: usize, const M: usize>(
     fact: &WrenchFactorization<T, N, M>,
     terms: &NewtonTerms<T, M>,
