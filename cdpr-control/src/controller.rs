@@ -374,8 +374,6 @@ impl<const M: usize> Controller<M> {
         let trig = Trig::of(x);
         let rot = trig.rotation();
         let p = Vector3::new(x[0], x[1], x[2]);
-        let mut lengths = SVector::<f32, M>::zeros();
-        let mut w = WrenchMatrix::<M>::zeros();
         // The robot's size for the degenerate-cable floor (comparisons:
         // `f32::max` is a library call on the M4F).
         let bigger = |m: f32, v: &Vector3<f32>| {
@@ -388,32 +386,22 @@ impl<const M: usize> Controller<M> {
             }
             m
         };
-        let mut size = bigger(self.anchor_extent, &p);
         let anchors = self.robot.anchors();
         let attachments = self.robot.attachments();
-        let mut vectors = [Vector3::zeros(); M];
-        let mut rbs = [Vector3::zeros(); M];
-        for i in 0..M {
-            let rb = rot * attachments[i];
-            let l = anchors[i] - p - rb;
-            size = bigger(size, &rb);
-            lengths[i] = l.norm_squared().sqrt_native();
-            vectors[i] = l;
-            rbs[i] = rb;
-        }
+        // Built element by element (`from_fn`): nothing is zeroed first.
+        let rbs: [Vector3<f32>; M] = core::array::from_fn(|i| rot * attachments[i]);
+        let vectors: [Vector3<f32>; M] = core::array::from_fn(|i| anchors[i] - p - rbs[i]);
+        let lengths = SVector::<f32, M>::from_fn(|i, _| vectors[i].norm_squared().sqrt_native());
+        let size = rbs.iter().fold(bigger(self.anchor_extent, &p), bigger);
         let floor = tension_core::tolerance::degenerate_length(size);
-        for i in 0..M {
-            let length = lengths[i];
+        for &length in lengths.iter() {
             if !(length.is_finite() && length > floor) {
                 return Err(if length.is_finite() { Error::DegenerateCable } else { Error::NonFinite });
             }
-            let u = vectors[i] / length;
-            let m = rbs[i].cross(&u);
-            for k in 0..3 {
-                w[(k, i)] = u[k];
-                w[(k + 3, i)] = m[k];
-            }
         }
+        let units: [Vector3<f32>; M] = core::array::from_fn(|i| vectors[i] / lengths[i]);
+        let moments: [Vector3<f32>; M] = core::array::from_fn(|i| rbs[i].cross(&units[i]));
+        let w = WrenchMatrix::<M>::from_fn(|k, i| if k < 3 { units[i][k] } else { moments[i][k - 3] });
         // Motion (`Motion::from_pose_derivatives` with the shared trig).
         let (da, db, dc) = (v[3], v[4], v[5]);
         let (sa, ca, sb, cb) = (trig.sa, trig.ca, trig.sb, trig.cb);

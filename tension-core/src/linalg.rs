@@ -148,7 +148,11 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
                 rmax = d;
             }
         }
-        if !(finite(self.qr.as_slice()) && finite(self.rdiag.as_slice()) && finite(self.beta.as_slice())) {
+        // What is kept: `R` (strictly above the diagonal of `qr`, the
+        // rest of it is scratch), its diagonal and the reflections' `beta`
+        // (their vectors come from columns already checked through `norm2`).
+        let r_finite = all_finite((1..N).flat_map(|j| (0..j).map(move |i| (i, j))).map(|ij| self.qr[ij]));
+        if !(r_finite && finite(self.rdiag.as_slice()) && finite(self.beta.as_slice())) {
             return Err(Error::NonFinite);
         }
         // Null-space basis: Z e_k = H_1 ... H_N e_{N+k}.
