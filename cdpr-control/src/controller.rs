@@ -3,7 +3,7 @@
 //! torques, optionally with the winches' friction compensated
 //! ([`FrictionCompensation`]).
 
-use tension_core::linalg::WrenchFactorization;
+use tension_core::methods::Workspace;
 use tension_core::nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use tension_core::{Error, Method, Motion, Real, Robot, RobotKind, Solution, TensionSolver, WarmStart};
 
@@ -189,8 +189,8 @@ pub struct FrictionCompensation {
 pub struct Controller<const M: usize = CABLES> {
     robot: Robot<f32, DOF, M>,
     solver: TensionSolver<f32, M>,
-    /// The solver's factorisation, refilled every cycle.
-    scratch: WrenchFactorization<f32, DOF, M>,
+    /// The solver's factorisation and polygon, refilled every cycle.
+    scratch: Workspace<f32, DOF, M>,
     /// The largest anchor coordinate's magnitude (the anchors' part of the
     /// robot's size for the degenerate-cable floor, which is constant).
     anchor_extent: f32,
@@ -214,7 +214,7 @@ impl<const M: usize> Controller<M> {
         Ok(Self {
             robot,
             solver: TensionSolver::new(method),
-            scratch: WrenchFactorization::zeroed(),
+            scratch: Workspace::new(),
             anchor_extent,
             friction: None,
         })

@@ -117,6 +117,17 @@ pub type Can1Irq = ();
 pub type Can2Irq = ();
 
 impl Board {
+    /// [`Self::start`] into `slot` (a static of the program's `init`): the
+    /// board (about 6 KB with the control loop and the solver's room) is
+    /// moved through this function's frame, which is gone before `init`
+    /// goes on (e.g. to build the demo's drive models), so the two never
+    /// sit on the stack together.
+    #[inline(never)]
+    pub fn start_in(slot: &'static mut Option<Board>, dp: Peripherals) -> (&'static mut Board, Rest) {
+        let (board, rest) = Self::start(dp);
+        (slot.insert(board), rest)
+    }
+
     /// Brings the board up: stack painting, the board's clocks, TIM2 and
     /// its calibration, the monotonic on TIM5 and the control loop.
     /// Panics if the robot's constants do not form a valid robot.

@@ -61,7 +61,10 @@ pub fn rig() -> LoopbackRig {
 /// The rig for the measured step, built in `slot` (a static of the
 /// program's `init`, so that its 6.4 KB never sit on the control task's
 /// stack), when the build asks for the layer in the step
-/// ([`LAYER_IN_STEP`]); `None` otherwise.
+/// ([`LAYER_IN_STEP`]); `None` otherwise. Not inlined: the rig is moved
+/// through this function's frame only, never beside `init`'s others
+/// (e.g. [`crate::Board::start_in`]'s).
+#[inline(never)]
 pub fn rig_for_the_step(slot: &'static mut Option<LoopbackRig>) -> Option<&'static mut LoopbackRig> {
     LAYER_IN_STEP.then(|| slot.insert(rig()))
 }

@@ -4,8 +4,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::{
-    linalg::WrenchFactorization,
-    methods::{self, Method, PreviousCycle},
+    methods::{self, Method, PreviousCycle, Workspace},
     Error, Real, Solution, TensionLimits,
 };
 
@@ -55,12 +54,12 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         result
     }
 
-    /// [`Self::solve`] with the factorisation written to the caller's
-    /// `scratch` ([`methods::solve_with`]): the same result, without
-    /// clearing a new factorisation every call.
+    /// [`Self::solve`] with the factorisation and the polygon written to
+    /// the caller's `scratch` ([`methods::solve_with`]): the same result,
+    /// without clearing them anew every call.
     pub fn solve_with<const N: usize>(
         &mut self,
-        scratch: &mut WrenchFactorization<T, N, M>,
+        scratch: &mut Workspace<T, N, M>,
         w: &SMatrix<T, N, M>,
         f: &SVector<T, N>,
         limits: &TensionLimits<T, M>,
@@ -98,25 +97,28 @@ mod tests {
 
     /// `solve_with` is `solve` whatever the scratch held before: the same
     /// answers and warm starts along a sequence of problems (feasible,
-    /// infeasible, another method's factorisation left in the scratch).
+    /// infeasible, another method's factorisation and polygon left in the
+    /// workspace), for both polygon methods.
     #[test]
-    fn solve_with_a_kept_factorisation_is_solve() {
+    fn solve_with_a_kept_workspace_is_solve() {
         let limits = TensionLimits::uniform(1.0, 10.0).unwrap();
         let w = SMatrix::<f64, 1, 3>::new(1.0, 1.0, 1.0);
-        let mut scratch = crate::linalg::WrenchFactorization::<f64, 1, 3>::zeroed();
-        let mut other = TensionSolver::<f64, 3>::new(Method::ClosedForm);
-        let _ = other.solve_with(&mut scratch, &w, &SVector::<f64, 1>::new(5.0), &limits);
-        let mut plain = TensionSolver::<f64, 3>::new(Method::Barycenter);
-        let mut kept = TensionSolver::<f64, 3>::new(Method::Barycenter);
+        let mut scratch = Workspace::<f64, 1, 3>::new();
         let mut compared = 0;
-        for f in [12.0, 13.0, 100.0, 3.5, 29.0, 30.0, 31.0, 12.0] {
-            let f = SVector::<f64, 1>::new(f);
-            let a = plain.solve(&w, &f, &limits);
-            let b = kept.solve_with(&mut scratch, &w, &f, &limits);
-            assert_eq!(a, b, "f = {f}");
-            assert_eq!(plain.previous, kept.previous);
-            compared += 1;
+        for method in [Method::Barycenter, Method::BarycenterBrute] {
+            let mut other = TensionSolver::<f64, 3>::new(Method::ClosedForm);
+            let _ = other.solve_with(&mut scratch, &w, &SVector::<f64, 1>::new(5.0), &limits);
+            let mut plain = TensionSolver::<f64, 3>::new(method);
+            let mut kept = TensionSolver::<f64, 3>::new(method);
+            for f in [12.0, 13.0, 100.0, 3.5, 29.0, 30.0, 31.0, 12.0] {
+                let f = SVector::<f64, 1>::new(f);
+                let a = plain.solve(&w, &f, &limits);
+                let b = kept.solve_with(&mut scratch, &w, &f, &limits);
+                assert_eq!(a, b, "{method:?}, f = {f}");
+                assert_eq!(plain.previous, kept.previous);
+                compared += 1;
+            }
         }
-        assert_eq!(compared, 8);
+        assert_eq!(compared, 16);
     }
 }

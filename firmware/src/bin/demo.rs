@@ -28,8 +28,7 @@ mod app {
         rig_slot: Option<LoopbackRig> = None,
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        let (board, rest) = Board::start(cx.device);
-        let board = cx.local.board_slot.insert(board);
+        let (board, rest) = Board::start_in(cx.local.board_slot, cx.device);
         let rig = firmware::loopback::rig_for_the_step(cx.local.rig_slot);
         Board::start_watchdog(&rest.iwdg);
         if control::spawn().is_err() {

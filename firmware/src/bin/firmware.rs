@@ -49,8 +49,7 @@ mod app {
         board_slot: Option<Board> = None,
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        let (board, rest) = Board::start(cx.device);
-        let board = cx.local.board_slot.insert(board);
+        let (board, rest) = Board::start_in(cx.local.board_slot, cx.device);
         // QEMU: the encoders' stand-in rests where the demo trajectory
         // starts (the pose the end-to-end test homes with).
         board.place_stand_in(firmware::robot::DEMO.setpoint(0).pose.into());

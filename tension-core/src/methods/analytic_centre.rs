@@ -38,7 +38,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use super::{PreviousCycle, Problem};
+use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{
     tolerance,
     linalg::{cholesky_solve_leading, WrenchFactorization},
@@ -149,6 +149,7 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
     AnalyticCentre::default().solve(problem, previous.tensions.as_ref())
 }
@@ -473,7 +474,7 @@ fn newton_step<T: Real, const N: usize, const M: usize>(
 /// centre. [`Error::Infeasible`] only with a proof.
 fn decide_infeasible<T: Real, const N: usize, const M: usize>(problem: &Problem<'_, T, N, M>, t: &SVector<T, M>) -> Error {
     let Problem { w, f, limits, .. } = *problem;
-    match super::min_2_norm::solve(problem, &PreviousCycle::NONE) {
+    match super::min_2_norm::smallest(problem, &PreviousCycle::NONE) {
         Err(Error::Infeasible) => return Error::Infeasible,
         // Feasible tensions exist; Newton could not centre them.
         Ok(_) => return Error::NoConvergence,

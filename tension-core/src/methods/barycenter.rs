@@ -8,8 +8,8 @@
 //! other cables, and the exhaustive `4 C(M,2)` line pairs (`O(M^3)`) only for
 //! lines the clipping cannot rule out.
 
-use super::{Problem, PreviousCycle};
-use crate::{polygon::VertexList, tension_polygon::TensionPolygon, Error, Real, Solution};
+use super::{PolygonWork, Problem, PreviousCycle};
+use crate::{Error, Real, Solution};
 
 /// Reads the null-space basis.
 pub const NULL_SPACE: bool = true;
@@ -26,10 +26,10 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
+    work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let mut poly = TensionPolygon::zeroed();
+    let PolygonWork { polygon: poly, vertices } = work;
     poly.set(problem.factorization, problem.f, problem.limits)?;
-    let mut vertices = VertexList::new();
-    let found = poly.polygon.walk_into(previous.active_pair, &mut vertices)?;
+    let found = poly.polygon.walk_into(previous.active_pair, vertices)?;
     poly.centroid_solution(&found, problem.limits, previous.active_pair)
 }

@@ -3,8 +3,8 @@
 //! (Mikelsons et al. 2008), `O(M^3)`; the reference the walk is tested
 //! against. `M = N + 2`, no warm start.
 
-use super::{Problem, PreviousCycle};
-use crate::{polygon::VertexList, tension_polygon::TensionPolygon, Error, Real, Solution};
+use super::{PolygonWork, Problem, PreviousCycle};
+use crate::{Error, Real, Solution};
 
 /// Reads the null-space basis.
 pub const NULL_SPACE: bool = true;
@@ -21,10 +21,10 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     _previous: &PreviousCycle<T, M>,
+    work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let mut poly = TensionPolygon::zeroed();
+    let PolygonWork { polygon: poly, vertices } = work;
     poly.set(problem.factorization, problem.f, problem.limits)?;
-    let mut vertices = VertexList::new();
-    let found = poly.polygon.brute_force_into(&mut vertices)?;
+    let found = poly.polygon.brute_force_into(vertices)?;
     poly.centroid_solution(&found, problem.limits, None)
 }

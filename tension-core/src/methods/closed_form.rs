@@ -5,7 +5,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use super::{PreviousCycle, Problem};
+use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{
     linalg::WrenchFactorization,
     scalar::finite,
@@ -34,6 +34,7 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     _previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
     let Problem { w, f, limits, factorization } = *problem;
     if !finite(f.as_slice()) {

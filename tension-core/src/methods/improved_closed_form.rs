@@ -5,7 +5,7 @@ use nalgebra::SVector;
 
 use super::{
     closed_form::{first_violation, misses_box, reduced_closed_form},
-    PreviousCycle, Problem,
+    PolygonWork, PreviousCycle, Problem,
 };
 use crate::{
     linalg::WrenchFactorization,
@@ -38,6 +38,7 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     _previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
     let Problem { w, f, limits, factorization } = *problem;
     if !finite(f.as_slice()) {

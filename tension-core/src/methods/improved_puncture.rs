@@ -3,7 +3,7 @@
 //! ([`super::improved_closed_form`]), for the poses where the plain closed
 //! form leaves the limits. Any degree of redundancy.
 
-use super::{PreviousCycle, Problem};
+use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{Error, Real, Solution};
 
 /// Reads only the particular solution.
@@ -22,6 +22,7 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    super::puncture::towards(problem, || super::improved_closed_form::solve(problem, previous))
+    super::puncture::towards(problem, || super::improved_closed_form::solve(problem, previous, _work))
 }

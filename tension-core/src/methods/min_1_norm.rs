@@ -6,7 +6,7 @@
 
 use nalgebra::SVector;
 
-use super::{PreviousCycle, Problem};
+use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{
     active_set::{minimise_linear, project, Constraints, NullSpaceProblem},
     polygon_optimum::{decided_on_polygon, Norm},
@@ -30,6 +30,7 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
     if let Some(decided) = decided_on_polygon(problem, previous, Norm::One) {
         return decided;

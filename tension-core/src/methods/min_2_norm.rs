@@ -36,7 +36,7 @@
 
 use nalgebra::SVector;
 
-use super::{PreviousCycle, Problem};
+use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{
     active_set::{project, Constraints, NullSpaceProblem},
     polygon_optimum::{decided_on_polygon, Norm},
@@ -58,6 +58,16 @@ pub const fn supports(n: usize, m: usize) -> bool {
 /// The smallest `|t|_2` (see the module header); `previous.active_pair`
 /// warm-starts the walk for `r = 2`.
 pub fn solve<T: Real, const N: usize, const M: usize>(
+    problem: &Problem<'_, T, N, M>,
+    previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
+) -> Result<Solution<T, M>, Error> {
+    smallest(problem, previous)
+}
+
+/// [`solve`] without the room it does not use (the analytic centre's
+/// verdict calls it).
+pub(crate) fn smallest<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {

@@ -6,6 +6,7 @@
 //! pub fn solve<T: Real, const N: usize, const M: usize>(
 //!     problem: &Problem<'_, T, N, M>,
 //!     previous: &PreviousCycle<T, M>,
+//!     work: &mut PolygonWork<T, N, M>,
 //! ) -> Result<Solution<T, M>, Error>
 //! ```
 //!
@@ -20,7 +21,12 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::{linalg::WrenchFactorization, polygon::ActivePair, Error, Real, Solution, TensionLimits};
+use crate::{
+    linalg::WrenchFactorization,
+    polygon::{ActivePair, VertexList},
+    tension_polygon::TensionPolygon,
+    Error, Real, Solution, TensionLimits,
+};
 
 /// One tension distribution problem: find `t` with `W t = f` and
 /// `t_min <= t <= t_max`, with `W` already factored.
@@ -78,6 +84,50 @@ impl<T: Real, const M: usize> Default for PreviousCycle<T, M> {
     }
 }
 
+/// Room the polygon methods fill in place (`work` in the seam): the
+/// feasible polygon and its vertex list, about 1 KB for 8 cables. Whatever
+/// it held is overwritten; a control loop keeps one ([`Workspace`]) rather
+/// than clearing a new one every call. Methods without a polygon ignore it.
+pub struct PolygonWork<T: Real, const N: usize, const M: usize> {
+    pub(crate) polygon: TensionPolygon<T, N, M>,
+    pub(crate) vertices: VertexList<T, M>,
+}
+
+impl<T: Real, const N: usize, const M: usize> PolygonWork<T, N, M> {
+    /// Empty.
+    pub fn new() -> Self {
+        Self { polygon: TensionPolygon::zeroed(), vertices: VertexList::new() }
+    }
+}
+
+impl<T: Real, const N: usize, const M: usize> Default for PolygonWork<T, N, M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// What [`solve_with`] fills in place: the factorisation and the polygon
+/// methods' room. A control loop keeps one for its calls.
+pub struct Workspace<T: Real, const N: usize, const M: usize> {
+    /// `W^T = Q [R; 0]` of the last call.
+    pub factorization: WrenchFactorization<T, N, M>,
+    /// The polygon methods' room.
+    pub polygon: PolygonWork<T, N, M>,
+}
+
+impl<T: Real, const N: usize, const M: usize> Workspace<T, N, M> {
+    /// Empty.
+    pub fn new() -> Self {
+        Self { factorization: WrenchFactorization::zeroed(), polygon: PolygonWork::new() }
+    }
+}
+
+impl<T: Real, const N: usize, const M: usize> Default for Workspace<T, N, M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// Shapes served by the methods that need the polygon (`r = 2`).
 pub(crate) const fn redundancy_two(n: usize, m: usize) -> bool {
     n > 0 && m == n + 2
@@ -100,16 +150,17 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
     // Filled in place: no factorisation moved through a `Result`.
-    let mut factorization = WrenchFactorization::zeroed();
-    solve_with(method, &mut factorization, w, f, limits, previous)
+    let mut workspace = Workspace::new();
+    solve_with(method, &mut workspace, w, f, limits, previous)
 }
 
-/// [`solve`] with the factorisation written to the caller's `scratch`
-/// (whatever it held is overwritten): a control loop that keeps one does
-/// not clear a new one (about 170 numbers) every cycle.
+/// [`solve`] with the factorisation and the polygon written to the
+/// caller's `scratch` (whatever it held is overwritten): a control loop
+/// that keeps one does not clear a new one (about 170 numbers for the
+/// factorisation, 1 KB for the polygon with 8 cables) every cycle.
 pub fn solve_with<T: Real, const N: usize, const M: usize>(
     method: Method,
-    scratch: &mut WrenchFactorization<T, N, M>,
+    scratch: &mut Workspace<T, N, M>,
     w: &SMatrix<T, N, M>,
     f: &SVector<T, N>,
     limits: &TensionLimits<T, M>,
@@ -119,15 +170,16 @@ pub fn solve_with<T: Real, const N: usize, const M: usize>(
         return Err(Error::UnsupportedShape);
     }
     let null_columns = if method.reads_null_space() { M - N } else { 0 };
-    scratch.factor(w, &[true; M], null_columns)?;
-    let factorization = &*scratch;
+    let Workspace { factorization, polygon: work } = scratch;
+    factorization.factor(w, &[true; M], null_columns)?;
+    let factorization = &*factorization;
     let problem = Problem { w, f, limits, factorization };
-    let result = method.dispatch(&problem, previous);
+    let result = method.dispatch(&problem, previous, work);
     // A warm start may make a method faster, never make it fail: a failure
     // that is not a proof about the problem is tried again from cold.
     match result {
         Err(e) if method.warm_starts() && *previous != PreviousCycle::NONE && !e.is_certain() => {
-            method.dispatch(&problem, &PreviousCycle::NONE)
+            method.dispatch(&problem, &PreviousCycle::NONE, work)
         }
         result => result,
     }
@@ -190,7 +242,7 @@ macro_rules! methods {
                 if !self.supports(N, M) {
                     return Err(Error::UnsupportedShape);
                 }
-                self.dispatch(problem, previous)
+                self.dispatch(problem, previous, &mut PolygonWork::new())
             }
 
             /// The method's module, for a shape already checked.
@@ -198,8 +250,9 @@ macro_rules! methods {
                 self,
                 problem: &Problem<'_, T, N, M>,
                 previous: &PreviousCycle<T, M>,
+                work: &mut PolygonWork<T, N, M>,
             ) -> Result<Solution<T, M>, Error> {
-                match self { $( Method::$variant => $module::solve(problem, previous), )* }
+                match self { $( Method::$variant => $module::solve(problem, previous, work), )* }
             }
         }
     };

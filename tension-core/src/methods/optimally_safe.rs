@@ -41,7 +41,7 @@
 
 use nalgebra::{SVector, Vector2};
 
-use super::{PreviousCycle, Problem};
+use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{
     active_set::{minimise_linear, project, small, Constraints, NullSpaceProblem},
     scalar::greater,
@@ -64,6 +64,7 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     _previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
     let Problem { f, limits, factorization: fact, .. } = *problem;
     let prob = NullSpaceProblem::new(fact, f, limits)?;

@@ -49,7 +49,7 @@
 
 use nalgebra::SVector;
 
-use super::{PreviousCycle, Problem};
+use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{
     linalg::WrenchFactorization,
     scalar::finite,
@@ -73,8 +73,9 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
+    _work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    towards(problem, || super::closed_form::solve(problem, previous))
+    towards(problem, || super::closed_form::solve(problem, previous, _work))
 }
 
 /// Steps 1 and 3 of the module header with the end point `end` computes
