@@ -582,8 +582,7 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
     let check = match tracked {
         Err(e) => Err(e),
         Ok(c) => {
-            let default = crate::firmware::robot_path(crate::firmware::DEFAULT_ROBOT).ok();
-            let hold_budget = default.as_deref() == Some(file);
+            let hold_budget = crate::firmware::is_default_robot(file);
             judge_tracking(c, &tracking, last, (tolerances.tension, tolerances.torque), hold_budget)
         }
     };

@@ -22,7 +22,7 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
-    _work: &mut PolygonWork<T, N, M>,
+    work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    super::puncture::towards(problem, || super::improved_closed_form::solve(problem, previous, _work))
+    super::puncture::towards(problem, || super::improved_closed_form::solve(problem, previous, work))
 }

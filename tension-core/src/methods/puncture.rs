@@ -73,9 +73,9 @@ pub const fn supports(n: usize, m: usize) -> bool {
 pub fn solve<T: Real, const N: usize, const M: usize>(
     problem: &Problem<'_, T, N, M>,
     previous: &PreviousCycle<T, M>,
-    _work: &mut PolygonWork<T, N, M>,
+    work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    towards(problem, || super::closed_form::solve(problem, previous, _work))
+    towards(problem, || super::closed_form::solve(problem, previous, work))
 }
 
 /// Steps 1 and 3 of the module header with the end point `end` computes
