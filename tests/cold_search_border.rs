@@ -1,0 +1,110 @@
+//! The cold search for a first vertex (`FeasiblePolygon::first_vertex`,
+//! Lamaury & Gouttefarde 2013, Eq. 8) finds a vertex exactly when the
+//! exhaustive pair search does (`FeasiblePolygon::brute_force`, Mikelsons et
+//! al. 2008), at the feasibility border, where the tolerances decide: random
+//! polygons of eight cables (some rows nearly parallel, as on IPAnema 1)
+//! shifted by bisection to where the exhaustive verdict flips, then checked
+//! at and around that shift, in `f32` and `f64`.
+
+use nalgebra::Vector2;
+use proptest::{prelude::*, test_runner::TestRunner};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use tension_core::{polygon::FeasiblePolygon, Real};
+
+const M: usize = 8;
+
+/// Rows, limits and a shift direction for the limits' offsets.
+type Case = ([[f64; 2]; M], [f64; M], [f64; M], [f64; M]);
+
+fn case() -> impl Strategy<Value = Case> {
+    (
+        prop::array::uniform8((0.0..std::f64::consts::TAU, 0.05..3.0f64, 0u8..4)),
+        prop::array::uniform8((1.0..20.0f64, 1.0..20.0f64)),
+        prop::array::uniform8(-1.0..1.0f64),
+    )
+        .prop_map(|(rows, limits, shift)| {
+            let mut r = [[0.0; 2]; M];
+            for (i, &(angle, norm, twin)) in rows.iter().enumerate() {
+                // One row in four nearly parallel to the one before it.
+                let a = if twin == 0 && i > 0 { rows[i - 1].0 + 1e-4 * angle } else { angle };
+                r[i] = [norm * a.cos(), norm * a.sin()];
+            }
+            // The offsets' origin inside every cable's limits: feasible
+            // before the shift.
+            let lower = limits.map(|(below, _)| -below);
+            let upper = limits.map(|(_, above)| above);
+            (r, lower, upper, shift)
+        })
+}
+
+fn polygon<T: Real>(c: &Case, tau: f64) -> Option<FeasiblePolygon<T, M>> {
+    let rows = c.0.map(|r| Vector2::new(T::lit(r[0]), T::lit(r[1])));
+    let lower: [T; M] = core::array::from_fn(|i| T::lit(c.1[i] + tau * c.3[i]));
+    let upper: [T; M] = core::array::from_fn(|i| T::lit(c.2[i] + tau * c.3[i]));
+    FeasiblePolygon::new(rows, lower, upper).ok()
+}
+
+fn exhaustive<T: Real>(c: &Case, tau: f64) -> Option<bool> {
+    polygon::<T>(c, tau).map(|p| p.brute_force().is_ok())
+}
+
+/// Checks the cold search against the exhaustive one at the shifts around
+/// the border; the number of shifts checked.
+fn check_border<T: Real>(c: &Case) -> Result<usize, TestCaseError> {
+    // Feasible unshifted (the offsets' origin is inside); the first
+    // doubling of the shift that is not.
+    if exhaustive::<T>(c, 0.0) != Some(true) {
+        return Ok(0);
+    }
+    let Some(mut b) = (0..12).map(|k| f64::from(1 << k)).find(|&tau| exhaustive::<T>(c, tau) == Some(false))
+    else {
+        return Ok(0);
+    };
+    let mut a = 0.0;
+    for _ in 0..80 {
+        let mid = 0.5 * (a + b);
+        match exhaustive::<T>(c, mid) {
+            Some(true) => a = mid,
+            Some(false) => b = mid,
+            None => return Ok(0),
+        }
+    }
+    let mut checked = 0;
+    for i in -8..=8 {
+        let tau = a + (b - a) * i as f64 + 1e-7 * (1.0 + a.abs()) * i as f64;
+        let Some(p) = polygon::<T>(c, tau) else { continue };
+        prop_assert_eq!(
+            p.first_vertex().is_some(),
+            p.brute_force().is_ok(),
+            "shift {} (border between {} and {})",
+            tau,
+            a,
+            b
+        );
+        checked += 1;
+    }
+    Ok(checked)
+}
+
+fn run<T: Real>(cases: u32) {
+    let checked = AtomicUsize::new(0);
+    let mut runner = TestRunner::new(cdpr_integration_tests::persisted_config(cases, file!()));
+    runner
+        .run(&case(), |c| {
+            checked.fetch_add(check_border::<T>(&c)?, Ordering::Relaxed);
+            Ok(())
+        })
+        .unwrap();
+    let n = checked.into_inner();
+    assert!(n >= cases as usize * 8, "only {n} border polygons reached the comparison");
+}
+
+#[test]
+fn cold_search_agrees_with_the_exhaustive_search_at_the_border_f64() {
+    run::<f64>(400);
+}
+
+#[test]
+fn cold_search_agrees_with_the_exhaustive_search_at_the_border_f32() {
+    run::<f32>(400);
+}
