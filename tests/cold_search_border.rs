@@ -2,7 +2,8 @@
 //! Lamaury & Gouttefarde 2013, Eq. 8) finds a vertex exactly when the
 //! exhaustive pair search does (`FeasiblePolygon::brute_force`, Mikelsons et
 //! al. 2008), at the feasibility border, where the tolerances decide: random
-//! polygons of eight cables (some rows nearly parallel, as on IPAnema 1)
+//! polygons of eight cables (some rows parallel or nearly parallel to
+//! another, as on IPAnema 1)
 //! shifted by bisection to where the exhaustive verdict flips, then checked
 //! at and around that shift, in `f32` and `f64`.
 
@@ -18,22 +19,39 @@ type Case = ([[f64; 2]; M], [f64; M], [f64; M], [f64; M]);
 
 fn case() -> impl Strategy<Value = Case> {
     (
-        prop::array::uniform8((0.0..std::f64::consts::TAU, 0.05..3.0f64, 0u8..4)),
+        prop::array::uniform8((0.0..std::f64::consts::TAU, 0.05..3.0f64, 0u8..4, 2.0..9.0f64)),
         prop::array::uniform8((1.0..20.0f64, 1.0..20.0f64)),
         prop::array::uniform8(-1.0..1.0f64),
     )
         .prop_map(|(rows, limits, shift)| {
             let mut r = [[0.0; 2]; M];
-            for (i, &(angle, norm, twin)) in rows.iter().enumerate() {
-                // One row in four nearly parallel to the one before it.
-                let a = if twin == 0 && i > 0 { rows[i - 1].0 + 1e-4 * angle } else { angle };
-                r[i] = [norm * a.cos(), norm * a.sin()];
-            }
             // The offsets' origin inside every cable's limits: feasible
             // before the shift.
-            let lower = limits.map(|(below, _)| -below);
-            let upper = limits.map(|(_, above)| above);
-            (r, lower, upper, shift)
+            let mut lower = limits.map(|(below, _)| -below);
+            let mut upper = limits.map(|(_, above)| above);
+            let mut v = shift;
+            let mut previous = 0.0;
+            for (i, &(angle, norm, twin, decades)) in rows.iter().enumerate() {
+                // One row in four nearly parallel to the one before it (at
+                // 1e-2 to 1e-9 rad), one in four a twin of it: the same
+                // direction and norm, limits and shift within 1e-6 of its
+                // (IPAnema 1's symmetric poses).
+                let a = match twin {
+                    0 if i > 0 => previous + 10f64.powf(-decades),
+                    1 if i > 0 => previous,
+                    _ => angle,
+                };
+                let n = if twin == 1 && i > 0 { rows[i - 1].1 } else { norm };
+                if twin == 1 && i > 0 {
+                    let tiny = 1e-6 * (angle - 3.0);
+                    lower[i] = lower[i - 1] + tiny;
+                    upper[i] = upper[i - 1] + tiny;
+                    v[i] = v[i - 1] + tiny;
+                }
+                r[i] = [n * a.cos(), n * a.sin()];
+                previous = a;
+            }
+            (r, lower, upper, v)
         })
 }
 

@@ -16,7 +16,13 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// candidates, checked like any pair ([`Self::vertex_of`]). A line whose
     /// interval is empty by more than four times the largest acceptance
     /// tolerance of any of its pairs (the slack tolerance widened by the
-    /// crossing's error bound) holds no vertex at all and is left out. Only
+    /// crossing's error bound; crossings with lines too close to parallel
+    /// for [`Self::intersect`] are no vertex and do not count) holds no
+    /// vertex at all and is left out, and so is a line that a (nearly)
+    /// parallel cable's half-plane excludes by as much wherever a vertex of
+    /// it could lie (the line of a twin cable outside its twin's, at a
+    /// symmetric pose). Candidates are checked first against the cable
+    /// that ends the interval at the other end. Only
     /// when no candidate held do the remaining lines' pairs go through the
     /// exhaustive search, in a fixed order (at most `4 C(M, 2)` pairs of
     /// `O(M)` checks), so the search finds a vertex exactly when the
@@ -33,7 +39,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let u = self.rows[k1] / n1;
             let d = Vector2::new(-u.y, u.x);
             // Foot points of the two lines on u: p = u b / |n_k1|, b = lower or upper.
-            let (b_lo, b_hi) = (self.lower[k1] / n1, self.upper[k1] / n1);
+            let b = [self.lower[k1] / n1, self.upper[k1] / n1];
             // Per line (side 0: lower, 1: upper): interval [lo, hi] of s,
             // the lines attaining its ends and their rates |n_j . d|.
             let big = T::max_value()?;
@@ -43,8 +49,12 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let mut g_hi = [none; 2];
             let mut r_lo = [T::zero(); 2];
             let mut r_hi = [T::zero(); 2];
-            // Largest error bound of a crossing on these lines (same for both).
+            // Largest error bound of a crossing on these lines that can be a
+            // vertex (same for both).
             let mut err = T::zero();
+            // The cables (nearly) parallel to these lines, left out of the
+            // intervals (a bit per cable).
+            let mut parallel: u32 = 0;
             for j in 0..M {
                 if !self.used[j] || j == k1 {
                     continue;
@@ -53,15 +63,21 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 let nu = self.rows[j].dot(&u);
                 let and = nd.abs();
                 // The crossing's error bound tol (|n_1| + |n_j|) / |det|, with
-                // |det| = |n_1| |n_j . d|, not below where `intersect` stops.
-                let den = max(and, T::lit(0.5) * self.ptol[j]);
-                let e = self.tol * (n1 + self.norms[j]) / (n1 * den);
-                err = max(err, e);
+                // |det| = |n_1| |n_j . d|, for the cables whose crossing
+                // `intersect` may give: a line at half its parallel
+                // threshold never crosses (by a factor 2 over rounding), so
+                // its (huge) bound is no tolerance of any vertex.
+                if and > T::lit(0.5) * self.ptol[j] {
+                    err = max(err, self.tol * (n1 + self.norms[j]) / (n1 * and));
+                }
                 if and <= self.ptol[j] {
-                    continue; // (nearly) parallel: left out, which only widens the interval
+                    // (Nearly) parallel: left out of the interval, which only
+                    // widens it; kept for the check below.
+                    parallel |= 1 << j;
+                    continue;
                 }
                 for side in 0..2 {
-                    let np = nu * if side == 0 { b_lo } else { b_hi };
+                    let np = nu * b[side];
                     let sa = (self.lower[j] - np) / nd;
                     let sb = (self.upper[j] - np) / nd;
                     let (s_min, h_min, s_max, h_max) =
@@ -91,10 +107,26 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                         continue;
                     }
                 }
+                if parallel != 0 && g_lo[side] != none && g_hi[side] != none {
+                    // A vertex the pair check accepts lies on the line within
+                    // `accept / rate` of the interval (beyond an end, the
+                    // half-plane that ends it is violated at that rate): a
+                    // (nearly) parallel cable's half-plane violated by more
+                    // than `accept` at both of those points is violated all
+                    // along them (linear in s), and the line holds no vertex
+                    // (a twin cable's line beside it, at a symmetric pose).
+                    let ends = [(lo[side], r_lo[side]), (hi[side], r_hi[side])];
+                    if self.outside_a_parallel_cable(parallel, k1, side, ends, accept) {
+                        continue;
+                    }
+                }
                 open |= 1 << h1;
-                for g in [g_lo[side], g_hi[side]] {
+                // Each candidate checked first against the cable ending the
+                // interval at the other end (which rejects it when the
+                // interval is empty).
+                for (g, other) in [(g_lo[side], g_hi[side]), (g_hi[side], g_lo[side])] {
                     if g != none {
-                        if let Some(v) = self.vertex_of(h1.min(g), h1.max(g)) {
+                        if let Some(v) = self.vertex_of_checking(h1.min(g), h1.max(g), other / 2) {
                             return Some(v);
                         }
                     }
@@ -115,5 +147,43 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
         }
         None
+    }
+
+    /// Whether one of the cables in `parallel` (a bit per cable) has a
+    /// half-plane violated by more than `accept` all along line `2 k1 +
+    /// side` from `accept / rate` before its interval's lower end to as far
+    /// beyond its upper end (`ends`: each end's `s` and rate): linear in `s`,
+    /// so checked at those two points. Not inlined: the clipping's loop
+    /// keeps its registers.
+    #[inline(never)]
+    fn outside_a_parallel_cable(
+        &self,
+        parallel: u32,
+        k1: usize,
+        side: usize,
+        ends: [(T, T); 2],
+        accept: T,
+    ) -> bool {
+        let n1 = self.norms[k1];
+        let u = self.rows[k1] / n1;
+        let d = Vector2::new(-u.y, u.x);
+        let b = if side == 0 { self.lower[k1] } else { self.upper[k1] } / n1;
+        let [(lo, r_lo), (hi, r_hi)] = ends;
+        let (pa, pb) = (u * b + d * (lo - accept / r_lo), u * b + d * (hi + accept / r_hi));
+        let mut rest = parallel;
+        for _ in 0..M {
+            if rest == 0 {
+                break;
+            }
+            let j = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let (na, nb) = (self.rows[j].dot(&pa), self.rows[j].dot(&pb));
+            let below = min(self.lower[j] - na, self.lower[j] - nb);
+            let above = min(na - self.upper[j], nb - self.upper[j]);
+            if below > accept || above > accept {
+                return true;
+            }
+        }
+        false
     }
 }

@@ -384,19 +384,29 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// The vertex of two lines if it satisfies every half-plane within the
     /// tolerance widened by its own error bound.
     fn vertex_of(&self, h1: usize, h2: usize) -> Option<Vertex<T>> {
+        self.vertex_of_checking(h1, h2, M)
+    }
+
+    /// [`Self::vertex_of`] checking cable `first` before the others (the one
+    /// the caller expects to reject the crossing, if any: the rest are
+    /// then not read; `M` or more: none first). The same answer.
+    fn vertex_of_checking(&self, h1: usize, h2: usize, first: usize) -> Option<Vertex<T>> {
         if h1 / 2 == h2 / 2 || !self.is_used(h1) || !self.is_used(h2) {
             return None;
         }
         let (p, error) = self.intersect(h1, h2)?;
         let t = self.tol;
-        for k in 0..M {
-            if !self.used[k] {
-                continue;
-            }
-            // Both half-planes of cable k: n_k . p - lower >= -w, upper - n_k . p >= -w.
+        // Both half-planes of cable k: n_k . p - lower >= -w, upper - n_k . p >= -w.
+        let holds = |k: usize| {
             let w = t + self.norms[k] * error;
             let np = self.rows[k].dot(&p);
-            if !(np - self.lower[k] >= -w && self.upper[k] - np >= -w) {
+            !self.used[k] || (np - self.lower[k] >= -w && self.upper[k] - np >= -w)
+        };
+        if first < M && !holds(first) {
+            return None;
+        }
+        for k in 0..M {
+            if !holds(k) {
                 return None;
             }
         }
