@@ -33,6 +33,14 @@ pub const RX_PER_CYCLE: usize = 32;
 /// Buses.
 pub const BUSES: usize = 2;
 
+/// Drives per bus sent "enable operation" in one cycle at most: the
+/// others follow one a cycle, in cable order (four drives on a bus are
+/// enabled within 4 ms, against the supervisor's 200 ms torque ramp), so
+/// enabling adds at most one controlword frame to a bus's cycle and two
+/// to the step. Transitions towards the brake and fault resets are not
+/// paced.
+pub const ENABLES_PER_CYCLE: u8 = 1;
+
 /// A CAN controller as the layer needs it: `embedded-can`'s non-blocking
 /// transmit and receive, and whether it is bus-off (which `embedded-can`
 /// does not say).
@@ -326,9 +334,10 @@ impl<P1: CanPort, P2: CanPort> WinchDrives for CanDrives<P1, P2> {
     fn apply(&mut self, torques: &[f32; CABLES]) -> Result<(), CanDrivesError> {
         let now = self.cycle;
         let mut sync = [false; BUSES];
+        let mut enables = [ENABLES_PER_CYCLE; BUSES];
         for (n, &t) in self.nodes.iter_mut().zip(torques) {
             let bus = usize::from(n.config().bus).min(BUSES - 1);
-            sync[bus] |= n.cyclic(t, now, &mut self.outbox[bus]);
+            sync[bus] |= n.cyclic(t, now, &mut self.outbox[bus], &mut enables[bus]);
         }
         let mut result = Ok(());
         for (bus, &s) in sync.iter().enumerate() {

@@ -48,5 +48,5 @@ pub mod node;
 pub mod sim;
 
 pub use config::{added_loop_delay_ns, DriveConfig, Timing, BOARD_LOOP_DELAY_NS};
-pub use drives::{emergency_frames, CanDrives, CanDrivesError, CanPort};
+pub use drives::{emergency_frames, CanDrives, CanDrivesError, CanPort, ENABLES_PER_CYCLE};
 pub use frame::RawFrame;

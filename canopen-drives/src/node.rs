@@ -342,12 +342,23 @@ impl Node {
             self.sync_sent = false;
             if self.pdo_fresh {
                 if let (Some(p), Some((from, cycles))) = (self.position, self.speed_from) {
-                    let counts = i64::from(p.wrapping_sub(from));
-                    let per_second = counts * i64::from(self.timing.cycle_hz);
-                    // One cycle apart (the rule): no 64-bit division,
-                    // which is a library call on the Cortex-M4.
-                    let s = if cycles <= 1 { per_second } else { per_second / i64::from(cycles) };
-                    self.speed = s.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+                    // In 32 bits while the product fits (always, for a
+                    // real encoder at 1 kHz: 2^31 counts a second), in 64
+                    // and saturated otherwise; one cycle apart (the rule):
+                    // no division.
+                    let counts = p.wrapping_sub(from);
+                    let cycles = cycles.clamp(1, i32::MAX as u32);
+                    self.speed = match i32::try_from(self.timing.cycle_hz)
+                        .ok()
+                        .and_then(|hz| counts.checked_mul(hz))
+                    {
+                        Some(v) if cycles == 1 => v,
+                        Some(v) => v / cycles as i32,
+                        None => {
+                            let s = i64::from(counts) * i64::from(self.timing.cycle_hz) / i64::from(cycles);
+                            s.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+                        }
+                    };
                 }
                 self.speed_from = self.position.map(|p| (p, 1));
                 self.missed = 0;
@@ -459,8 +470,12 @@ impl Node {
 
     /// The cycle's process data (`torque` N m) and the controlword when a
     /// transition is due, into `out`; whether the drive takes part in the
-    /// bus's SYNC (it is starting or operational).
-    pub fn cyclic(&mut self, torque: f32, now: u32, out: &mut Outbox) -> bool {
+    /// bus's SYNC (it is starting or operational). `enables`: how many
+    /// drives of the bus may still be sent "enable operation" this cycle
+    /// (taken from when this one is; at zero its enabling waits for a later
+    /// cycle, while every other transition, towards the brake or out of a
+    /// fault, goes at once).
+    pub fn cyclic(&mut self, torque: f32, now: u32, out: &mut Outbox, enables: &mut u8) -> bool {
         if !matches!(self.stage, Stage::Start | Stage::Operational) {
             return false;
         }
@@ -475,6 +490,14 @@ impl Node {
                     step_towards(state, self.target)
                 } else {
                     None
+                };
+                let command = match command {
+                    Some((controlword::ENABLE_OPERATION, _)) if *enables == 0 => None,
+                    Some((controlword::ENABLE_OPERATION, e)) => {
+                        *enables -= 1;
+                        Some((controlword::ENABLE_OPERATION, e))
+                    }
+                    other => other,
                 };
                 if let Some((cw, expected)) = command {
                     self.controlword = cw;

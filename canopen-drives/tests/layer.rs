@@ -132,18 +132,29 @@ fn released_brakes_enable_operation_and_the_torques_reach_the_drives_in_the_cycl
     let mut b = Bench::started();
     b.brakes = false;
     b.torques = core::array::from_fn(|i| 0.1 * i as f32 - 0.3);
-    // One cycle: the controlword goes out before the torques; the drives
-    // are enabled and take the torque on receipt (RPDO1 type 255).
-    b.cycle().unwrap();
-    for i in 0..CABLES {
-        let d = b.rig.drive(i);
-        assert_eq!(d.state(), DriveState::OperationEnabled, "drive {i}");
-        assert!(!d.brake_engaged());
-        let expected = (b.torques[i] * 1000.0 / RATED).round() as i16;
-        assert_eq!(d.target_torque(), expected);
-        assert!(
-            (d.torque_nm(b.rig.now_ns) - f64::from(b.torques[i])).abs() <= f64::from(RATED) / 2000.0 + 1e-9
-        );
+    // One drive per bus a cycle (`ENABLES_PER_CYCLE`): its controlword goes
+    // out before the torques; it is enabled and takes the torque on receipt
+    // (RPDO1 type 255), while the bus's drives not yet enabled keep their
+    // brakes. Four drives per bus: all enabled in four cycles.
+    assert_eq!(canopen_drives::ENABLES_PER_CYCLE, 1);
+    for k in 1..=4 {
+        b.cycle().unwrap();
+        for i in 0..CABLES {
+            let d = b.rig.drive(i);
+            if i % 4 < k {
+                assert_eq!(d.state(), DriveState::OperationEnabled, "drive {i} after {k} cycles");
+                assert!(!d.brake_engaged());
+                let expected = (b.torques[i] * 1000.0 / RATED).round() as i16;
+                assert_eq!(d.target_torque(), expected);
+                assert!(
+                    (d.torque_nm(b.rig.now_ns) - f64::from(b.torques[i])).abs()
+                        <= f64::from(RATED) / 2000.0 + 1e-9
+                );
+            } else {
+                assert_eq!(d.state(), DriveState::SwitchedOn, "drive {i} after {k} cycles");
+                assert!(d.brake_engaged());
+            }
+        }
     }
     b.cycle().unwrap();
     // Brakes engaged: "switched on", no torque.
@@ -320,7 +331,9 @@ fn a_drive_that_leaves_operation_by_itself_or_never_gets_there_is_state_lost() {
     let (took, f) = b.fault(100);
     assert_eq!((f.drive, f.cause), (6, DriveFaultCause::StateLost));
     assert_eq!(f.code, u32::from(DriveState::SwitchedOn.statusword()));
-    assert_eq!(took, Timing::DEFAULT.transition_cycles + 2);
+    // Drive 6 is the third of its bus to be sent "enable operation" (one a
+    // cycle): two cycles later than the first.
+    assert_eq!(took, Timing::DEFAULT.transition_cycles + 2 + 2);
     // Enabled, then an NMT "stop" from elsewhere quick stops it (0x6007):
     // "operation enabled" lost.
     let mut b = Bench::operating();

@@ -23,7 +23,7 @@ use tension_core::{Error, Method};
 use crate::controller::{Controller, Cycle, PhaseTicks, Saturation, Wrench};
 use crate::drives::{WinchDrives, WinchReading};
 use crate::encoder::{EncoderScale, Homing};
-use crate::estimator::{Estimate, EstimateError, Estimator, EstimatorSettings, OwnedReference, Reference};
+use crate::estimator::{Estimate, EstimateError, Estimator, EstimatorSettings, Reference};
 use crate::feedback::{
     length_rates, FeedbackLimits, Gains, JointGains, JointPid, Prediction, Scheme, TaskPid,
 };
@@ -1046,15 +1046,18 @@ impl ControlLoop {
             self.counters.reject(Rejection::Homing);
             return;
         }
-        match OwnedReference::at(self.controller.robot(), pose) {
-            Some(reference) => {
-                let r = reference.as_ref();
+        // The cable lengths at the home pose, by the step's own kinematics
+        // (one pass, the frame's sines and cosines once).
+        let at_rest =
+            Setpoint { seq: 0, pose: *pose, velocity: Pose6::zeros(), acceleration: Pose6::zeros() };
+        match self.controller.kinematics(&at_rest) {
+            Ok(k) => {
                 let mut lengths = [0.0; CABLES];
-                lengths.copy_from_slice(r.lengths.as_slice());
+                lengths.copy_from_slice(k.lengths.as_slice());
                 self.homing = Some(self.scale.home(&lengths, &self.readings));
                 self.estimator.reset(pose);
             }
-            None => self.counters.reject(Rejection::Range),
+            Err(_) => self.counters.reject(Rejection::Range),
         }
     }
 }

@@ -1,9 +1,12 @@
 //! The setpoint range derived from suspended-8's anchors
-//! (`robots/suspended-8.toml`) is the range the firmware has always used.
+//! (`robots/suspended-8.toml`) is the range the firmware has always used,
+//! and its check is the comparisons it stands for.
 
 mod common;
 
 use cdpr_control::link::SetpointRange;
+use cdpr_protocol::Setpoint;
+use proptest::prelude::*;
 
 #[test]
 fn setpoint_range_of_suspended8() {
@@ -17,4 +20,83 @@ fn setpoint_range_of_suspended8() {
         angular_acceleration_max: 100.0,
     };
     assert_eq!(common::setpoint_range(), expected);
+}
+
+/// The check as written in comparisons: finite and `lo <= v <= hi`.
+fn reference(r: &SetpointRange, s: &Setpoint) -> bool {
+    let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
+    let bounded = |v: f32, max: f32| within(v, -max, max);
+    (0..3).all(|i| {
+        within(s.pose[i], r.position_min[i], r.position_max[i])
+            && bounded(s.pose[i + 3], r.angle_max)
+            && bounded(s.velocity[i], r.speed_max)
+            && bounded(s.velocity[i + 3], r.angular_speed_max)
+            && bounded(s.acceleration[i], r.acceleration_max)
+            && bounded(s.acceleration[i + 3], r.angular_acceleration_max)
+    })
+}
+
+/// Mostly values near the limits (either side, at them, +-0), some NaN,
+/// infinities, subnormals and extremes.
+fn value(limit: f32) -> impl Strategy<Value = f32> {
+    prop_oneof![
+        8 => (-1.2f32..1.2).prop_map(move |x| x * limit),
+        2 => Just(limit),
+        2 => Just(-limit),
+        1 => Just(f32::from_bits(limit.to_bits() + 1)),
+        1 => Just(-f32::from_bits(limit.to_bits() + 1)),
+        1 => Just(0.0),
+        1 => Just(-0.0),
+        1 => Just(f32::NAN),
+        1 => Just(-f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NEG_INFINITY),
+        1 => Just(f32::MIN_POSITIVE / 4.0),
+        1 => Just(f32::MAX),
+    ]
+}
+
+/// A limit: the firmware's, or one a range built by hand may hold.
+fn limit(usual: f32) -> impl Strategy<Value = f32> {
+    prop_oneof![
+        12 => Just(usual),
+        1 => Just(0.0),
+        1 => Just(-0.0),
+        1 => Just(-usual),
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::MAX),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 20_000, failure_persistence: None, ..ProptestConfig::default() })]
+    #[test]
+    fn the_check_is_the_comparisons_it_stands_for(
+        maxima in (limit(1.0), limit(5.0), limit(10.0), limit(50.0), limit(100.0)),
+        (pose, velocity, acceleration) in (
+            (value(3.0), value(3.0), value(3.0), value(1.0), value(1.0), value(1.0)),
+            (value(5.0), value(5.0), value(5.0), value(10.0), value(10.0), value(10.0)),
+            (value(50.0), value(50.0), value(50.0), value(100.0), value(100.0), value(100.0)),
+        ),
+        lo in limit(-2.0),
+        one in 0usize..6,
+    ) {
+        let mut r = common::setpoint_range();
+        (r.angle_max, r.speed_max, r.angular_speed_max, r.acceleration_max, r.angular_acceleration_max) = maxima;
+        r.position_min[0] = lo;
+        let a = |t: (f32, f32, f32, f32, f32, f32)| [t.0, t.1, t.2, t.3, t.4, t.5];
+        let mut s = Setpoint { seq: 1, pose: a(pose), velocity: a(velocity), acceleration: a(acceleration) };
+        prop_assert_eq!(r.contains(&s), reference(&r, &s), "{:?} {:?}", r, s);
+        // One value at a time (the others inside): each test on its own.
+        let inside = Setpoint { seq: 1, pose: [0.1, 0.1, 0.5, 0.0, 0.0, 0.0], velocity: [0.0; 6], acceleration: [0.0; 6] };
+        for field in 0..3 {
+            let mut t = inside;
+            let v = [s.pose[one], s.velocity[one], s.acceleration[one]][field];
+            [&mut t.pose, &mut t.velocity, &mut t.acceleration][field][one] = v;
+            prop_assert_eq!(r.contains(&t), reference(&r, &t), "{:?} {:?}", r, t);
+        }
+        s.seq = 2;
+        prop_assert_eq!(r.contains(&s), reference(&r, &s));
+    }
 }
