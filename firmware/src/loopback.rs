@@ -10,8 +10,8 @@
 //! The product (`firmware`) in QEMU keeps the board's drives alone, and so
 //! does the demo unless built with `CDPR_DEMO_CAN_LAYER` set
 //! ([`LAYER_IN_STEP`]). The test command runs that build for suspended-8
-//! and holds its step to the 20 000-instruction budget (19 874 worst);
-//! ipanema1's is over it yet (21 216: `BENCHMARKS.md`).
+//! and holds its step to the 20 000-instruction budget (19 840 worst);
+//! ipanema1's is over it yet, by 48 (20 048: `BENCHMARKS.md`).
 
 use canopen_drives::model::LoopbackRig;
 use canopen_drives::{CanDrivesError, Timing};
