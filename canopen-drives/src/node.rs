@@ -482,7 +482,7 @@ impl Node {
         let n = u16::from(self.config.node);
         if matches!(self.stage, Stage::Operational) && self.fault.is_none() {
             if let Some(state) = self.state() {
-                let command = if self.fault_reset && state.is_fault() {
+                let mut command = if self.fault_reset && state.is_fault() {
                     self.fault_reset = false;
                     // The bit's rising edge: the previous controlword had it clear.
                     Some((controlword::FAULT_RESET, DriveState::SwitchOnDisabled))
@@ -491,14 +491,13 @@ impl Node {
                 } else {
                     None
                 };
-                let command = match command {
-                    Some((controlword::ENABLE_OPERATION, _)) if *enables == 0 => None,
-                    Some((controlword::ENABLE_OPERATION, e)) => {
-                        *enables -= 1;
-                        Some((controlword::ENABLE_OPERATION, e))
+                // Enabling paced: `enables` left for the bus this cycle.
+                if matches!(command, Some((controlword::ENABLE_OPERATION, _))) {
+                    match enables.checked_sub(1) {
+                        Some(left) => *enables = left,
+                        None => command = None,
                     }
-                    other => other,
-                };
+                }
                 if let Some((cw, expected)) = command {
                     self.controlword = cw;
                     self.transition = Some((expected, now));
