@@ -82,13 +82,20 @@ impl SetpointRange {
     }
 
     /// Whether a pose is finite with its position in the box and its
-    /// angles within `angle_max`.
+    /// angles within `angle_max` (none is when `angle_max` is NaN or below
+    /// zero); [`SetpointRange::contains`]'s test of the pose.
+    #[inline]
     pub fn contains_pose(&self, pose: &[f32; 6]) -> bool {
-        let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
-        (0..3).all(|i| {
-            within(pose[i], self.position_min[i], self.position_max[i])
-                && within(pose[i + 3], -self.angle_max, self.angle_max)
-        })
+        let angle = magnitude_bound(self.angle_max);
+        let mut ok = self.angle_max >= 0.0;
+        for i in 0..3 {
+            let p = pose[i];
+            ok &= ((p.to_bits() & MAGNITUDE) < INFINITY_BITS)
+                & (p >= self.position_min[i])
+                & (p <= self.position_max[i])
+                & within_magnitude(pose[i + 3], angle);
+        }
+        ok
     }
 
     /// Whether every value is finite and within range: `lo <= v <= hi` for
@@ -96,41 +103,44 @@ impl SetpointRange {
     /// limit is NaN or below zero).
     ///
     /// Every setpoint is checked, so the symmetric limits are tested on the
-    /// values' bit patterns: for a finite `max >= 0`, `|v| <= max` exactly
-    /// when `v`'s bits without the sign are at most `max`'s (IEEE 754 orders
-    /// non-negative floats as their bits; NaN and infinity lie above every
-    /// finite value), one integer comparison per value and no branch, where
-    /// two float comparisons and a finiteness test each cost a flag
-    /// transfer on the Cortex-M4F.
+    /// values' bit patterns ([`within_magnitude`]): one integer comparison
+    /// per value and no branch, where two float comparisons and a
+    /// finiteness test each cost a flag transfer on the Cortex-M4F.
     pub fn contains(&self, s: &cdpr_protocol::Setpoint) -> bool {
-        const MAGNITUDE: u32 = 0x7FFF_FFFF;
-        const INFINITY: u32 = 0x7F80_0000;
-        // A limit's bits (`+ 0.0`: -0 is 0; an infinite limit admits every
-        // finite value, not infinity).
-        let limit = |max: f32| (max + 0.0).to_bits().min(f32::MAX.to_bits());
-        let maxima = [
-            self.angle_max,
-            self.speed_max,
-            self.angular_speed_max,
-            self.acceleration_max,
-            self.angular_acceleration_max,
-        ];
-        let mut ok = maxima.iter().fold(true, |ok, &m| ok & (m >= 0.0));
-        let [angle, speed, angular_speed, acceleration, angular_acceleration] = maxima.map(limit);
-        let within = |v: f32, max: u32| (v.to_bits() & MAGNITUDE) <= max;
+        let maxima =
+            [self.speed_max, self.angular_speed_max, self.acceleration_max, self.angular_acceleration_max];
+        let mut ok = maxima.iter().fold(self.contains_pose(&s.pose), |ok, &m| ok & (m >= 0.0));
+        let [speed, angular_speed, acceleration, angular_acceleration] = maxima.map(magnitude_bound);
         for i in 0..3 {
-            let p = s.pose[i];
-            ok &= ((p.to_bits() & MAGNITUDE) < INFINITY)
-                & (p >= self.position_min[i])
-                & (p <= self.position_max[i]);
-            ok &= within(s.pose[i + 3], angle)
-                & within(s.velocity[i], speed)
-                & within(s.velocity[i + 3], angular_speed)
-                & within(s.acceleration[i], acceleration)
-                & within(s.acceleration[i + 3], angular_acceleration);
+            ok &= within_magnitude(s.velocity[i], speed)
+                & within_magnitude(s.velocity[i + 3], angular_speed)
+                & within_magnitude(s.acceleration[i], acceleration)
+                & within_magnitude(s.acceleration[i + 3], angular_acceleration);
         }
         ok
     }
+}
+
+/// An `f32`'s bits without the sign.
+const MAGNITUDE: u32 = 0x7FFF_FFFF;
+/// The bits of infinity: a magnitude's at or above it are not finite.
+const INFINITY_BITS: u32 = 0x7F80_0000;
+
+/// A limit `max >= 0` as the bound of [`within_magnitude`]: its bits (`+
+/// 0.0`: -0 is 0), at most `f32::MAX`'s (an infinite limit admits every
+/// finite value, not infinity). A NaN or negative limit admits nothing:
+/// the caller tests `max >= 0.0`.
+#[inline]
+fn magnitude_bound(max: f32) -> u32 {
+    (max + 0.0).to_bits().min(f32::MAX.to_bits())
+}
+
+/// `|v| <= max` for `bound = magnitude_bound(max)`, `max >= 0`: IEEE 754
+/// orders non-negative floats as their bits, and NaN and infinity lie above
+/// every finite bound, so this is false for them.
+#[inline]
+fn within_magnitude(v: f32, bound: u32) -> bool {
+    (v.to_bits() & MAGNITUDE) <= bound
 }
 
 /// How far a setpoint may depart from where the reference's motion puts

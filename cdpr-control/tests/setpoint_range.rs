@@ -36,6 +36,15 @@ fn reference(r: &SetpointRange, s: &Setpoint) -> bool {
     })
 }
 
+/// The pose's part of [`reference`] (a `Home`'s check).
+fn reference_pose(r: &SetpointRange, pose: &[f32; 6]) -> bool {
+    let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
+    (0..3).all(|i| {
+        within(pose[i], r.position_min[i], r.position_max[i])
+            && within(pose[i + 3], -r.angle_max, r.angle_max)
+    })
+}
+
 /// Mostly values near the limits (either side, at them, +-0), some NaN,
 /// infinities, subnormals and extremes.
 fn value(limit: f32) -> impl Strategy<Value = f32> {
@@ -88,6 +97,7 @@ proptest! {
         let a = |t: (f32, f32, f32, f32, f32, f32)| [t.0, t.1, t.2, t.3, t.4, t.5];
         let mut s = Setpoint { seq: 1, pose: a(pose), velocity: a(velocity), acceleration: a(acceleration) };
         prop_assert_eq!(r.contains(&s), reference(&r, &s), "{:?} {:?}", r, s);
+        prop_assert_eq!(r.contains_pose(&s.pose), reference_pose(&r, &s.pose), "{:?} {:?}", r, s.pose);
         // One value at a time (the others inside): each test on its own.
         let inside = Setpoint { seq: 1, pose: [0.1, 0.1, 0.5, 0.0, 0.0, 0.0], velocity: [0.0; 6], acceleration: [0.0; 6] };
         for field in 0..3 {
