@@ -17,7 +17,9 @@
 //! 3. the caller reports the step's measured cost with
 //!    [`ControlLoop::record_cost`] (it appears in the next telemetry).
 
-use cdpr_protocol::{Counters, DriveFault, HostMessage, LineFrame, Reason, Rejection, State, Telemetry};
+use cdpr_protocol::{
+    Counters, DriveFault, FrameError, HostMessage, LineFrame, Reason, Rejection, State, Telemetry,
+};
 use tension_core::{Error, Method};
 
 use crate::controller::{Controller, Cycle, PhaseTicks, Saturation, Wrench};
@@ -238,8 +240,6 @@ pub struct ControlLoop {
     cycle: u32,
     /// The costliest step since the last telemetry sample.
     worst_cost: u32,
-    /// The newest setpoint that solved feasibly (what the winches hold).
-    last_feasible: Option<Setpoint>,
     /// The methods `SelectMethod` may choose.
     offered: MethodSet,
     scale: EncoderScale,
@@ -253,7 +253,8 @@ pub struct ControlLoop {
     task_pid: TaskPid,
     joint_pid: Option<JointPid>,
     tracking_limit: Option<f32>,
-    /// The inverse kinematics of `last_feasible`.
+    /// The inverse kinematics of the newest setpoint that solved feasibly
+    /// (what the winches hold).
     feasible_lengths: Option<[f32; CABLES]>,
     /// The fraction of the task-space feedback wrench applied
     /// ([`FEEDBACK_RECOVERY_PER_CYCLE`]).
@@ -332,7 +333,6 @@ impl ControlLoop {
             telemetry_period: DEFAULT_TELEMETRY_PERIOD,
             cycle: 0,
             worst_cost: 0,
-            last_feasible: None,
             offered: MethodSet::ALL,
         })
     }
@@ -374,14 +374,9 @@ impl ControlLoop {
         }
     }
 
-    /// The newest setpoint that solved feasibly: the one whose torques the
-    /// winches get (Enabled) or hold (Holding).
-    pub fn last_feasible_setpoint(&self) -> Option<&Setpoint> {
-        self.last_feasible.as_ref()
-    }
-
-    /// The inverse kinematics of [`ControlLoop::last_feasible_setpoint`]
-    /// (what the length check compares the encoders with), m.
+    /// The inverse kinematics of the newest setpoint that solved feasibly
+    /// (the one whose torques the winches get in Enabled or hold in
+    /// Holding): what the length check compares the encoders with, m.
     pub fn last_feasible_lengths(&self) -> Option<&[f32; CABLES]> {
         self.feasible_lengths.as_ref()
     }
@@ -508,8 +503,8 @@ impl ControlLoop {
 
     /// Takes one byte from the serial link.
     pub fn receive_byte(&mut self, byte: u8) {
-        if let Some(event) = self.link.receive(byte, self.cycle, &mut self.counters) {
-            self.apply(event);
+        if self.link.take_byte(byte) {
+            self.frame_ended();
         }
     }
 
@@ -532,7 +527,14 @@ impl ControlLoop {
     /// A delimiter arrived: the frame's event, if any, applied.
     #[inline(never)]
     fn frame_ended(&mut self) {
-        if let Some(event) = self.link.frame_ended(self.cycle, &mut self.counters) {
+        if let Some(outcome) = self.link.finish() {
+            self.judge(&outcome);
+        }
+    }
+
+    /// A decoded frame (or why it failed), judged by the link and applied.
+    fn judge(&mut self, outcome: &Result<HostMessage, FrameError>) {
+        if let Some(event) = self.link.judge(outcome, self.cycle, &mut self.counters) {
             self.apply(event);
         }
     }
@@ -546,11 +548,9 @@ impl ControlLoop {
     pub fn receive_frames(&mut self, source: &mut impl FrameSource) -> usize {
         for taken in 0..FRAME_BUDGET {
             let Some(frame) = source.peek() else { return taken };
-            let event = self.link.receive_frame(frame, self.cycle, &mut self.counters);
+            let outcome = Link::decode(frame);
             source.pop();
-            if let Some(event) = event {
-                self.apply(event);
-            }
+            self.judge(&outcome);
         }
         FRAME_BUDGET
     }
@@ -563,17 +563,17 @@ impl ControlLoop {
 
     /// Takes one decoded message (checked like a received frame).
     pub fn receive(&mut self, message: HostMessage) {
-        if let Some(event) = self.link.accept(message, self.cycle, &mut self.counters) {
+        if let Some(event) = self.link.accept(&message, self.cycle, &mut self.counters) {
             self.apply(event);
         }
     }
 
-    fn apply(&mut self, event: Event) {
+    fn apply(&mut self, event: Event<'_>) {
         match event {
             // A setpoint of its own ends a buffered stream.
             Event::Setpoint(s) => {
                 self.buffer.clear();
-                self.newest = Newest::Good(s, self.cycle);
+                self.newest = Newest::Good(Setpoint::from(s), self.cycle);
             }
             Event::Point(p) => {
                 let bound = matches!(self.supervisor.state(), State::Enabled | State::Holding);
@@ -791,7 +791,7 @@ impl ControlLoop {
                         // bytes: no copy through a closure's return).
                         if let Some((lengths, _)) = &measured {
                             let reference = Reference::of_setpoint(&setpoint.pose, k);
-                            estimate = Some(self.estimator.about(reference, lengths));
+                            self.estimator.about_into(reference, lengths, &mut estimate);
                         }
                         let t2 = clock.ticks();
                         ticks.estimator = t2.wrapping_sub(t1);
@@ -870,7 +870,6 @@ impl ControlLoop {
                         self.moment_scale = (self.moment_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
                         // The setpoint is feasible whatever the estimate:
                         // the length check and the stand-in plant follow it.
-                        self.last_feasible = Some(*setpoint);
                         self.feasible_lengths = Some(lengths);
                         if matches!(estimate, Some(Err(_))) {
                             SetpointStatus::Unobservable

@@ -276,8 +276,23 @@ impl Estimator {
         reference: Reference<'_>,
         lengths: &[f32; CABLES],
     ) -> Result<Estimate, EstimateError> {
+        let mut out = None;
+        self.about_into(reference, lengths, &mut out);
+        // `about_into` always writes `Some`.
+        out.unwrap_or(Err(EstimateError::NoReference))
+    }
+
+    /// [`Estimator::about`] written into `out` (`Some` of its result),
+    /// where the caller keeps it: an estimate is about 80 bytes, which a
+    /// returned value would cost a library copy on the Cortex-M4.
+    pub fn about_into(
+        &mut self,
+        reference: Reference<'_>,
+        lengths: &[f32; CABLES],
+        out: &mut Option<Result<Estimate, EstimateError>>,
+    ) {
         let result = step(reference, lengths, &self.settings);
-        match result {
+        *out = Some(match result {
             Ok((pose, delta, residual)) => {
                 if let (Some(last), true) = (self.last, self.fresh) {
                     let alpha = self.settings.alpha();
@@ -292,7 +307,7 @@ impl Estimator {
                 self.fresh = false;
                 Err(e)
             }
-        }
+        });
     }
 
     /// One plain Gauss-Newton iteration from the last estimate (its

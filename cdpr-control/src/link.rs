@@ -31,8 +31,6 @@
 use cdpr_protocol::{Counters, FrameDecoder, FrameError, HostMessage, LineFrame, Rejection};
 use tension_core::Robot;
 
-use crate::setpoint::Setpoint;
-
 /// Limits on a setpoint's values (base frame; conventions "Poses").
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SetpointRange {
@@ -234,11 +232,13 @@ pub fn newer(seq: u32, last: u32) -> bool {
     (1..=i32::MAX as u32).contains(&seq.wrapping_sub(last))
 }
 
-/// What an accepted frame asks for.
+/// What an accepted frame asks for (borrowing the decoded message `'m`: a
+/// setpoint, about 80 bytes, is copied once, where the control loop keeps
+/// it, not through the event).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Event {
+pub enum Event<'m> {
     /// A new setpoint, in range and in order.
-    Setpoint(Setpoint),
+    Setpoint(&'m cdpr_protocol::Setpoint),
     /// A setpoint arrived in order but with a non-finite or out-of-range
     /// value, or a jump from the last accepted one; it is not used.
     BadSetpoint,
@@ -291,19 +291,8 @@ impl Link {
         }
     }
 
-    /// Takes one received byte in cycle `now`; returns the event of a frame
-    /// it completed. Rejected frames are counted in `counters`.
-    pub fn receive(&mut self, byte: u8, now: u32, counters: &mut Counters) -> Option<Event> {
-        if self.take_byte(byte) {
-            self.frame_ended(now, counters)
-        } else {
-            None
-        }
-    }
-
-    /// The per-byte half of [`Link::receive`], kept inline in a receive
-    /// loop: whether `byte` ended a frame, after which
-    /// [`Link::frame_ended`] must be called.
+    /// Takes one received byte, kept inline in a receive loop: whether
+    /// `byte` ended a frame, after which [`Link::finish`] gives it.
     #[inline(always)]
     pub fn take_byte(&mut self, byte: u8) -> bool {
         self.decoder.push_byte(byte)
@@ -311,39 +300,40 @@ impl Link {
 
     /// Bytes from `next` up to the end of a frame, at most `limit`
     /// ([`cdpr_protocol::FrameDecoder::take_bytes`]): how many it took and
-    /// whether the last ended a frame, after which [`Link::frame_ended`]
-    /// must be called.
+    /// whether the last ended a frame, after which [`Link::finish`] gives
+    /// it.
     #[inline(always)]
     pub fn take_bytes(&mut self, next: &mut impl FnMut() -> Option<u8>, limit: usize) -> (usize, bool) {
         self.decoder.take_bytes(next, limit)
     }
 
-    /// The per-frame half of [`Link::receive`], after a delimiter: the
-    /// event of the frame it ended, if any, in cycle `now`; rejected frames
+    /// After a delimiter ([`Link::take_byte`]): the frame it ended, checked
+    /// and decoded (`None`: an empty frame, nothing to judge), for
+    /// [`Link::judge`].
+    pub fn finish(&mut self) -> Option<Result<HostMessage, FrameError>> {
+        self.decoder.finish::<HostMessage>()
+    }
+
+    /// A frame the receive interrupt reassembled ([`LineFrame`]), checked
+    /// and decoded, for [`Link::judge`]: the same outcome as its bytes
+    /// through [`Link::take_byte`] and [`Link::finish`].
+    pub fn decode(frame: &LineFrame) -> Result<HostMessage, FrameError> {
+        frame.message::<HostMessage>()
+    }
+
+    /// A decoded frame's event in cycle `now`, if any ([`Link::accept`]);
+    /// frames that failed their check or decoding, and rejected messages,
     /// are counted in `counters`.
-    pub fn frame_ended(&mut self, now: u32, counters: &mut Counters) -> Option<Event> {
-        let outcome = self.decoder.finish::<HostMessage>()?;
-        self.judge(outcome, now, counters)
-    }
-
-    /// A frame the receive interrupt reassembled ([`LineFrame`]), checked,
-    /// decoded and judged in cycle `now`: its event, if any; rejected
-    /// frames are counted in `counters`. The same outcome as its bytes
-    /// through [`Link::receive`].
-    pub fn receive_frame(&mut self, frame: &LineFrame, now: u32, counters: &mut Counters) -> Option<Event> {
-        self.judge(frame.message::<HostMessage>(), now, counters)
-    }
-
-    fn judge(
+    pub fn judge<'m>(
         &mut self,
-        outcome: Result<HostMessage, FrameError>,
+        outcome: &'m Result<HostMessage, FrameError>,
         now: u32,
         counters: &mut Counters,
-    ) -> Option<Event> {
+    ) -> Option<Event<'m>> {
         match outcome {
             Ok(message) => self.accept(message, now, counters),
             Err(e) => {
-                counters.reject(match e {
+                counters.reject(match *e {
                     FrameError::Framing | FrameError::Oversize => Rejection::Framing,
                     FrameError::Crc => Rejection::Crc,
                     FrameError::Decode | FrameError::TrailingBytes | FrameError::BufferTooSmall => {
@@ -355,12 +345,17 @@ impl Link {
         }
     }
 
-    /// Checks a decoded message (from [`Link::receive`], or from a local
+    /// Checks a decoded message (from [`Link::judge`], or from a local
     /// source such as the firmware's demo script) arriving in cycle `now`
     /// and returns its event.
-    pub fn accept(&mut self, message: HostMessage, now: u32, counters: &mut Counters) -> Option<Event> {
-        // By reference: a setpoint (about 80 bytes) is copied once, into its event.
-        let event = match &message {
+    pub fn accept<'m>(
+        &mut self,
+        message: &'m HostMessage,
+        now: u32,
+        counters: &mut Counters,
+    ) -> Option<Event<'m>> {
+        // By reference: a setpoint (about 80 bytes) is not copied here.
+        let event = match message {
             HostMessage::Setpoint(s) => {
                 let bound = self.reference.filter(|_| self.bound);
                 if bound.is_some_and(|r| !newer(s.seq, r.seq)) {
@@ -379,7 +374,7 @@ impl Link {
                 }
                 self.reference =
                     Some(Reference { seq: s.seq, pose: s.pose, velocity: s.velocity, cycle: now });
-                Event::Setpoint(Setpoint::from(s))
+                Event::Setpoint(s)
             }
             HostMessage::Enable => Event::Enable,
             HostMessage::Disable => {
