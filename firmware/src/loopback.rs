@@ -10,8 +10,8 @@
 //! The product (`firmware`) in QEMU keeps the board's drives alone, and so
 //! does the demo unless built with `CDPR_DEMO_CAN_LAYER` set
 //! ([`LAYER_IN_STEP`]). The test command runs that build for suspended-8
-//! and holds its step to the 20 000-instruction budget (19 840 worst);
-//! ipanema1's is over it yet, by 48 (20 048: `BENCHMARKS.md`).
+//! and ipanema1 and holds their steps to the 20 000-instruction budget
+//! (19 532 and 19 809 worst: `BENCHMARKS.md`).
 
 use canopen_drives::model::LoopbackRig;
 use canopen_drives::{CanDrivesError, Timing};
