@@ -32,22 +32,29 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         if vertices.is_empty() {
             return Err(Error::Infeasible);
         }
-        // Sort counter-clockwise about the mean (insertion sort, <= 4M items).
+        // Sort counter-clockwise about the mean (insertion sort, <= 4M
+        // items), each vertex's angle computed once (an `atan2` is a few
+        // hundred instructions on the board: not one per comparison).
         let mut mean = Vector2::zeros();
         for v in vertices.iter() {
             mean += v.point;
         }
         mean /= T::lit(vertices.len() as f64);
-        let angle = |v: &Vertex<T>| {
+        let mut angles = [[T::zero(); M]; 4];
+        for (i, v) in vertices.iter().enumerate() {
             let p = v.point - mean;
-            p.y.atan2(p.x)
-        };
+            angles[i / M][i % M] = p.y.atan2(p.x);
+        }
+        let angle = |angles: &[[T; M]; 4], i: usize| angles[i / M][i % M];
         for i in 1..vertices.len() {
             let mut j = i;
-            while j > 0 && angle(&vertices.get(j - 1)) > angle(&vertices.get(j)) {
+            while j > 0 && angle(&angles, j - 1) > angle(&angles, j) {
                 let a = vertices.get(j - 1);
                 vertices.set(j - 1, vertices.get(j));
                 vertices.set(j, a);
+                let k = angle(&angles, j - 1);
+                angles[(j - 1) / M][(j - 1) % M] = angle(&angles, j);
+                angles[j / M][j % M] = k;
                 j -= 1;
             }
         }
