@@ -5,12 +5,18 @@
 //! polygons of eight cables (some rows parallel or nearly parallel to
 //! another, as on IPAnema 1)
 //! shifted by bisection to where the exhaustive verdict flips, then checked
-//! at and around that shift, in `f32` and `f64`.
+//! at and around that shift, in `f32` and `f64`. At the same shifts, the
+//! walk's fallback (the pairs of the lines the clipping does not prove
+//! empty, `FeasiblePolygon::brute_force_among`) finds the same vertices, in
+//! the same order, with the same outcome, as the pairs of all lines.
 
 use nalgebra::Vector2;
 use proptest::{prelude::*, test_runner::TestRunner};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use tension_core::{polygon::FeasiblePolygon, Real};
+use tension_core::{
+    polygon::{FeasiblePolygon, VertexList},
+    Real,
+};
 
 const M: usize = 8;
 
@@ -99,6 +105,14 @@ fn check_border<T: Real>(c: &Case) -> Result<usize, TestCaseError> {
             a,
             b
         );
+        let (mut all, mut among) = (VertexList::new(), VertexList::new());
+        let by_all = p.brute_force_into(&mut all);
+        let by_open = p.brute_force_among(p.lines_not_proven_empty(), &mut among);
+        prop_assert_eq!(by_all, by_open, "shift {}", tau);
+        prop_assert_eq!(all.len(), among.len(), "shift {}", tau);
+        for (u, v) in all.iter().zip(among.iter()) {
+            prop_assert_eq!(u, v, "shift {}", tau);
+        }
         checked += 1;
     }
     Ok(checked)

@@ -17,9 +17,32 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// [`Self::brute_force`] with the vertices written to the caller's list
     /// (which is cleared first).
     pub fn brute_force_into(&self, vertices: &mut VertexList<T, M>) -> Result<PolygonSummary<T>, Error> {
+        self.brute_force_among(u64::MAX, vertices)
+    }
+
+    /// [`Self::brute_force_into`] over the pairs of the lines marked in
+    /// `lines` (a bit per line `2 k + side`; lines from 64 on are always
+    /// taken): the same vertices, in the same
+    /// order, when every line left out holds no vertex (the lines
+    /// [`Self::lines_not_proven_empty`] leaves out).
+    // Inlined: the reference's call (all lines) folds the line tests away.
+    #[inline(always)]
+    pub fn brute_force_among(
+        &self,
+        lines: u64,
+        vertices: &mut VertexList<T, M>,
+    ) -> Result<PolygonSummary<T>, Error> {
         vertices.clear();
+        // Lines beyond the mask's 64 bits are all taken.
+        let marked = |h: usize| h >= 64 || (lines >> h) & 1 != 0;
         for h1 in 0..2 * M {
+            if !marked(h1) {
+                continue;
+            }
             for h2 in (h1 + 1)..2 * M {
+                if !marked(h2) {
+                    continue;
+                }
                 if let Some(v) = self.vertex_of(h1, h2) {
                     let merge = |u: &Vertex<T>| T::lit(4.0) * self.tol + u.error + v.error;
                     if !vertices.iter().any(|u| (u.point - v.point).norm_squared().sqrt_native() <= merge(&u))

@@ -28,6 +28,21 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// `O(M)` checks), so the search finds a vertex exactly when the
     /// exhaustive one would.
     pub fn first_vertex(&self) -> Option<Vertex<T>> {
+        self.clip::<true>().0
+    }
+
+    /// The lines [`Self::first_vertex`]'s clipping does not prove empty
+    /// (a bit per line `2 k + side`), all of them clipped, none searched:
+    /// every vertex the pair check accepts lies on two of them.
+    pub fn lines_not_proven_empty(&self) -> u64 {
+        self.clip::<false>().1
+    }
+
+    /// The clipping of every line against the other cables, with the first
+    /// vertex searched as it goes (`FIND`: [`Self::first_vertex`], which
+    /// returns at the first) or not (the lines it leaves open).
+    #[inline(always)]
+    fn clip<const FIND: bool>(&self) -> (Option<Vertex<T>>, u64) {
         let none = 2 * M;
         // Lines not proven empty (M <= 32, so 2 M bits fit).
         let mut open: u64 = 0;
@@ -42,7 +57,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let b = [self.lower[k1] / n1, self.upper[k1] / n1];
             // Per line (side 0: lower, 1: upper): interval [lo, hi] of s,
             // the lines attaining its ends and their rates |n_j . d|.
-            let big = T::max_value()?;
+            // (No largest value: nothing is proven, every line stays open.)
+            let Some(big) = T::max_value() else { return (None, u64::MAX) };
             let mut lo = [-big; 2];
             let mut hi = [big; 2];
             let mut g_lo = [none; 2];
@@ -121,17 +137,23 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                     }
                 }
                 open |= 1 << h1;
+                if !FIND {
+                    continue;
+                }
                 // Each candidate checked first against the cable ending the
                 // interval at the other end (which rejects it when the
                 // interval is empty).
                 for (g, other) in [(g_lo[side], g_hi[side]), (g_hi[side], g_lo[side])] {
                     if g != none {
                         if let Some(v) = self.vertex_of_checking(h1.min(g), h1.max(g), other / 2) {
-                            return Some(v);
+                            return (Some(v), open);
                         }
                     }
                 }
             }
+        }
+        if !FIND {
+            return (None, open);
         }
         // No candidate held: every pair of the lines left.
         for h1 in 0..2 * M {
@@ -141,12 +163,12 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             for h2 in (h1 + 1)..2 * M {
                 if open & (1 << h2) != 0 {
                     if let Some(v) = self.vertex_of(h1, h2) {
-                        return Some(v);
+                        return (Some(v), open);
                     }
                 }
             }
         }
-        None
+        (None, open)
     }
 
     /// Whether one of the cables in `parallel` (a bit per cable) has a

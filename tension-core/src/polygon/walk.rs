@@ -43,7 +43,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         };
         match self.walk_from(start, vertices) {
             Some(robust_pair) => self.finish(vertices, Some(robust_pair), held),
-            None => self.brute_force_into(vertices),
+            // An anomaly (an edge met twice, on a sliver): every vertex by
+            // the pairs of the lines the clipping does not prove empty (the
+            // others hold none).
+            None => self.brute_force_among(self.lines_not_proven_empty(), vertices),
         }
     }
 
