@@ -11,7 +11,7 @@
 //! does the demo unless built with `CDPR_DEMO_CAN_LAYER` set
 //! ([`LAYER_IN_STEP`]). The test command runs that build for suspended-8
 //! and ipanema1 and holds their steps to the 20 000-instruction budget
-//! (19 545 and 19 734 worst: `BENCHMARKS.md`).
+//! (19 561 and 19 719 worst: `BENCHMARKS.md`).
 
 use canopen_drives::model::LoopbackRig;
 use canopen_drives::{CanDrivesError, Timing};

@@ -63,21 +63,19 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             mean += v.point;
         }
         mean /= T::lit(vertices.len() as f64);
-        let mut angles = [[T::zero(); M]; 4];
-        for (i, v) in vertices.iter().enumerate() {
+        let mut slots = [[T::zero(); M]; 4];
+        let angles = slots.as_flattened_mut();
+        for (a, v) in angles.iter_mut().zip(vertices.iter()) {
             let p = v.point - mean;
-            angles[i / M][i % M] = p.y.atan2(p.x);
+            *a = p.y.atan2(p.x);
         }
-        let angle = |angles: &[[T; M]; 4], i: usize| angles[i / M][i % M];
         for i in 1..vertices.len() {
             let mut j = i;
-            while j > 0 && angle(&angles, j - 1) > angle(&angles, j) {
+            while j > 0 && angles[j - 1] > angles[j] {
                 let a = vertices.get(j - 1);
                 vertices.set(j - 1, vertices.get(j));
                 vertices.set(j, a);
-                let k = angle(&angles, j - 1);
-                angles[(j - 1) / M][(j - 1) % M] = angle(&angles, j);
-                angles[j / M][j % M] = k;
+                angles.swap(j - 1, j);
                 j -= 1;
             }
         }
