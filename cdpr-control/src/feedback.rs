@@ -83,7 +83,7 @@
 //! (`Reason::Tracking`) when one is off by more than the tracking limit.
 
 use tension_core::nalgebra::{Matrix3, Vector3};
-use tension_core::{Error, Motion, RobotKind};
+use tension_core::{Error, Motion, Real, RobotKind};
 
 use crate::controller::Wrench;
 use crate::robot::{ControlRobot, CABLES};
@@ -157,11 +157,14 @@ fn rotation_error(rd: &Matrix3<f32>, r: &Matrix3<f32>) -> Vector3<f32> {
     Vector3::new(e[(2, 1)] - e[(1, 2)], e[(0, 2)] - e[(2, 0)], e[(1, 0)] - e[(0, 1)]) * 0.5
 }
 
-/// Scales `v` down to at most `max` in length.
+/// Scales `v` down to at most `max` in length. The length is compared
+/// squared and its square root taken only to scale (`Vector3::norm` is
+/// libm's software `sqrtf` on the board, about 50 instructions a call;
+/// `sqrt_native` is the FPU's `vsqrt.f32`).
 fn limit(v: Vector3<f32>, max: f32) -> Vector3<f32> {
-    let n = v.norm();
-    if n > max && n > 0.0 {
-        v * (max / n)
+    let n2 = v.norm_squared();
+    if n2 > max * max && n2 > 0.0 {
+        v * (max / n2.sqrt_native())
     } else {
         v
     }

@@ -83,13 +83,19 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         if N == 0 || N > M {
             return Err(Error::UnsupportedShape);
         }
-        if !finite(w.as_slice()) {
-            return Err(Error::NonFinite);
-        }
-        // a = W^T with dropped cables zeroed (M x N).
+        // a = W^T with dropped cables zeroed (M x N). The kept entries are
+        // not checked for finiteness here: a NaN or an infinity among them
+        // reaches what the factorisation keeps (a column's `norm2`, `R`, its
+        // diagonal or `beta`: a non-finite entry of a later column makes
+        // that column's dot product with every reflection, hence all of it,
+        // non-finite), which is checked below. A dropped cable's entries
+        // never enter the arithmetic, so they are checked here.
         self.qr = w.transpose();
         for (i, &k) in keep.iter().enumerate() {
             if !k {
+                if !all_finite(self.qr.row(i).iter().copied()) {
+                    return Err(Error::NonFinite);
+                }
                 self.qr.row_mut(i).fill(T::zero());
             }
         }
@@ -408,6 +414,49 @@ mod tests {
         let mut nan = w;
         nan[(1, 1)] = f64::NAN;
         assert_eq!(WrenchFactorization::new(&nan).unwrap_err(), Error::NonFinite);
+    }
+
+    /// The factorisation checks what it keeps, not its input: one NaN or
+    /// infinity anywhere in `W` (kept or dropped cable, any row) must still
+    /// give `NonFinite`, never a factorisation, in both precisions and with
+    /// and without the null-space columns. Counts the cases that reached
+    /// their assert.
+    #[test]
+    fn one_non_finite_entry_anywhere_is_refused() {
+        fn run<T: Real>() -> usize {
+            let w6 =
+                SMatrix::<T, 6, 8>::from_fn(|i, j| T::lit((((i * 8 + j) * (i * 8 + j) + 1) as f64).sin()));
+            assert!(WrenchFactorization::new(&w6).is_ok());
+            let bad = [
+                T::zero() / T::zero(),
+                T::max_value().unwrap() * T::lit(4.0),
+                -(T::max_value().unwrap() * T::lit(4.0)),
+            ];
+            let mut checked = 0;
+            for i in 0..6 {
+                for j in 0..8 {
+                    for &x in &bad {
+                        for keep_j in [true, false] {
+                            for null_columns in [0, 2] {
+                                let mut w = w6;
+                                w[(i, j)] = x;
+                                let mut keep = [true; 8];
+                                keep[j] = keep_j;
+                                let mut fact = WrenchFactorization::<T, 6, 8>::zeroed();
+                                assert_eq!(
+                                    fact.factor(&w, &keep, null_columns),
+                                    Err(Error::NonFinite),
+                                    "entry ({i}, {j}) = {x:?}, kept {keep_j}"
+                                );
+                                checked += 1;
+                            }
+                        }
+                    }
+                }
+            }
+            checked
+        }
+        assert_eq!(run::<f64>() + run::<f32>(), 2 * 6 * 8 * 3 * 2 * 2);
     }
 
     #[test]
