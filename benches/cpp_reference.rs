@@ -18,7 +18,8 @@
 //! * then times the kinematics (`W` and `f` of a pose) and the methods, each
 //!   the median time per call over the 1000 poses x 20 rounds, each call
 //!   timed (the protocol of `native_flags`), and prints one line per call:
-//!   `name<TAB>median ns`.
+//!   `name<TAB>median ns`; the first line, `timer (empty call)`, is what the
+//!   timing costs (two clock reads), included in every other line.
 //!
 //! The file is plain text, one record per line, the first word its kind,
 //! numbers in Rust's shortest round-trip notation:
@@ -147,6 +148,11 @@ fn main() {
         }
     }
 
+    // What the timing itself costs (two clock reads), in every row below.
+    let timer = median(|k| {
+        black_box(k);
+    });
+    println!("timer (empty call)\t{}", timer.as_nanos());
     let kinematics = median(|k| {
         black_box(robot.wrench_problem(black_box(&path[k]), &zero, None).ok());
     });

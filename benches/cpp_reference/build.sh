@@ -63,10 +63,14 @@ for s in "${sources[@]}"; do
     objects+=("$o")
     [[ -f "$o" && "$o" -nt "$root/$s" ]] || stale+=("$s")
 done
+compile() { $cxx $flags -c "$1" -o "$2"; }
+export -f compile
+export cxx flags
 if ((${#stale[@]})); then
     echo "compiling ${#stale[@]} WireLib sources with: $cxx $flags (-j$jobs)" >&2
-    printf '%s\n' "${stale[@]}" | xargs -P "$jobs" -I{} sh -c \
-        "$cxx $flags -c '$root/{}' -o '$out/obj/\$(echo {} | tr / _).o'"
+    for s in "${stale[@]}"; do
+        printf '%s\n%s\n' "$root/$s" "$out/obj/$(echo "$s" | tr / _).o"
+    done | xargs -d '\n' -n 2 -P "$jobs" bash -c 'compile "$0" "$1"'
 fi
 echo "compiling wirelib_bench.cpp and linking $out/wirelib_bench{,_allocations}" >&2
 $cxx $flags -c "$here/wirelib_bench.cpp" -o "$out/obj/wirelib_bench.o"

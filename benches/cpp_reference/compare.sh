@@ -67,6 +67,7 @@ ours = [rows(f"{out}/ours-{a}.tsv") for a in range(1, n + 1)]
 theirs = [rows(f"{out}/wirelib-{a}.tsv") for a in range(1, n + 1)]
 # (row, our call, WireLib's call)
 pairs = [
+    ("timer (empty call: two clock reads, in every row)", "timer (empty call)", "timer (empty call)"),
     ("kinematics (W and f / A^T incl. R)", "kinematics", "kinematics"),
     ("kinematics (WireLib: A^T, R given)", "kinematics", "kinematics (given R)"),
     ("closed-form (WireLib: llt, its default)", "closed-form", "closed-form (llt, default)"),
