@@ -36,6 +36,10 @@ pub struct WrenchFactorization<T: Real, const N: usize, const M: usize> {
     beta: SVector<T, N>,
     /// Diagonal of `R`.
     rdiag: SVector<T, N>,
+    /// `1 / R_kk`: the substitutions multiply (a division's latency on a
+    /// host is several multiplications', and it sits on their dependency
+    /// chain).
+    rinv: SVector<T, N>,
     /// Null-space basis in columns `0..M - N` (only the first
     /// [`Self::factor`]'s `null_columns` of them are filled).
     z: SMatrix<T, M, M>,
@@ -66,6 +70,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             v: SMatrix::zeros(),
             beta: SVector::zeros(),
             rdiag: SVector::zeros(),
+            rinv: SVector::zeros(),
             z: SMatrix::zeros(),
         }
     }
@@ -99,25 +104,23 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
                 self.qr.row_mut(i).fill(T::zero());
             }
         }
-        // Column-major slices: column j is [j * M, (j + 1) * M). Every inner
-        // loop runs over whole columns of the constant length M (the
-        // Householder vectors are zero above their first entry, which leaves
-        // the rows above untouched exactly), so the compiler unrolls them.
-        let a_s = self.qr.as_mut_slice();
-        let v_s = self.v.as_mut_slice();
+        // Column-major: column j is `[T; M]`. Every inner loop runs over
+        // whole columns of the constant length M (the Householder vectors
+        // are zero above their first entry, which leaves the rows above
+        // untouched exactly, and the zeros add nothing to the sums), so
+        // the compiler unrolls them, with no bounds to check.
+        let a_cols: &mut [[T; M]; N] = &mut self.qr.data.0;
+        let v_cols: &mut [[T; M]; N] = &mut self.v.data.0;
         let mut rmax = T::zero();
-        for (k, vk) in v_s.chunks_exact_mut(M).enumerate() {
-            let (done, later) = a_s.split_at_mut((k + 1) * M);
-            let col = &done[k * M..];
+        for (k, vk) in v_cols.iter_mut().enumerate() {
+            let (done, later) = a_cols.split_at_mut(k + 1);
+            let col = &done[k];
             // Householder vector for a[k.., k].
             let mut norm2 = T::zero();
-            for (i, (&c, v)) in col.iter().zip(vk.iter_mut()).enumerate() {
-                if i >= k {
-                    norm2 += c * c;
-                    *v = c;
-                } else {
-                    *v = T::zero();
-                }
+            for i in 0..M {
+                let c = if i >= k { col[i] } else { T::zero() };
+                vk[i] = c;
+                norm2 += c * c;
             }
             let norm = norm2.sqrt_native();
             let akk = col[k];
@@ -143,7 +146,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             self.beta[k] = b;
             let vk = &*vk;
             // a <- H a on columns k + 1..
-            for cj in later.chunks_exact_mut(M) {
+            for cj in later.iter_mut() {
                 let s = dot(vk, cj) * b;
                 for (c, &x) in cj.iter_mut().zip(vk) {
                     *c -= s * x;
@@ -157,7 +160,12 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         // What is kept: `R` (strictly above the diagonal of `qr`, the
         // rest of it is scratch), its diagonal and the reflections' `beta`
         // (their vectors come from columns already checked through `norm2`).
-        let r_finite = all_finite((1..N).flat_map(|j| (0..j).map(move |i| (i, j))).map(|ij| self.qr[ij]));
+        let r_finite = self
+            .qr
+            .as_slice()
+            .chunks_exact(M)
+            .enumerate()
+            .fold(true, |ok, (j, column)| ok & finite(&column[..j]));
         if !(r_finite && finite(self.rdiag.as_slice()) && finite(self.beta.as_slice())) {
             return Err(Error::NonFinite);
         }
@@ -177,6 +185,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             if self.rdiag[i].abs() <= threshold {
                 return Err(Error::Singular);
             }
+            self.rinv[i] = T::one() / self.rdiag[i];
         }
         Ok(())
     }
@@ -208,12 +217,13 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
     pub fn min_norm_solution(&self, f: &SVector<T, N>) -> SVector<T, M> {
         // Forward substitution R^T y = f, then t = Q [y; 0].
         let mut t: SVector<T, M> = SVector::zeros();
-        for i in 0..N {
+        for (i, column) in self.qr.as_slice().chunks_exact(M).enumerate() {
+            // Column i of `qr` holds R_ki above the diagonal.
             let mut s = f[i];
-            for k in 0..i {
-                s -= self.qr[(k, i)] * t[k];
+            for (&r, &tk) in column.iter().zip(t.iter()).take(i) {
+                s -= r * tk;
             }
-            t[i] = s / self.rdiag[i];
+            t[i] = s * self.rinv[i];
         }
         self.apply_q(&mut t);
         t

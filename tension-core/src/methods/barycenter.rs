@@ -8,7 +8,7 @@
 //! other cables, and the exhaustive `4 C(M,2)` line pairs (`O(M^3)`) only for
 //! lines the clipping cannot rule out.
 
-use super::{PolygonWork, Problem, PreviousCycle};
+use super::{PolygonRoom, PolygonWork, Problem, PreviousCycle};
 use crate::{Error, Real, Solution};
 
 /// Reads the null-space basis.
@@ -28,7 +28,7 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     previous: &PreviousCycle<T, M>,
     work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let PolygonWork { polygon: poly, vertices } = work;
+    let PolygonRoom { polygon: poly, vertices } = work.room();
     poly.set(problem.factorization, problem.f, problem.limits)?;
     let found = poly.polygon.walk_into(previous.active_pair, vertices)?;
     poly.centroid_solution(&found, problem.limits, previous.active_pair)

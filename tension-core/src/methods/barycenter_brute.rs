@@ -3,7 +3,7 @@
 //! (Mikelsons et al. 2008), `O(M^3)`; the reference the walk is tested
 //! against. `M = N + 2`, no warm start.
 
-use super::{PolygonWork, Problem, PreviousCycle};
+use super::{PolygonRoom, PolygonWork, Problem, PreviousCycle};
 use crate::{Error, Real, Solution};
 
 /// Reads the null-space basis.
@@ -23,7 +23,7 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     _previous: &PreviousCycle<T, M>,
     work: &mut PolygonWork<T, N, M>,
 ) -> Result<Solution<T, M>, Error> {
-    let PolygonWork { polygon: poly, vertices } = work;
+    let PolygonRoom { polygon: poly, vertices } = work.room();
     poly.set(problem.factorization, problem.f, problem.limits)?;
     let found = poly.polygon.brute_force_into(vertices)?;
     poly.centroid_solution(&found, problem.limits, None)

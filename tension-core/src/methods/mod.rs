@@ -85,18 +85,40 @@ impl<T: Real, const M: usize> Default for PreviousCycle<T, M> {
 }
 
 /// Room the polygon methods fill in place (`work` in the seam): the
-/// feasible polygon and its vertex list, about 1 KB for 8 cables. Whatever
-/// it held is overwritten; a control loop keeps one ([`Workspace`]) rather
-/// than clearing a new one every call. Methods without a polygon ignore it.
+/// feasible polygon and its vertex list, about 1 KB for 8 cables in `f32`
+/// (2 KB in `f64`). Whatever it held is overwritten; a control loop keeps
+/// one ([`Workspace`]) rather than clearing a new one every call. Methods
+/// without a polygon ignore it; a one-off call ([`solve`]) starts with an
+/// empty one ([`Self::lazy`]) that only a polygon method fills.
 pub struct PolygonWork<T: Real, const N: usize, const M: usize> {
+    room: Option<PolygonRoom<T, N, M>>,
+}
+
+/// The polygon and its vertices, once made.
+pub(crate) struct PolygonRoom<T: Real, const N: usize, const M: usize> {
     pub(crate) polygon: TensionPolygon<T, N, M>,
     pub(crate) vertices: VertexList<T, M>,
 }
 
 impl<T: Real, const N: usize, const M: usize> PolygonWork<T, N, M> {
-    /// Empty.
+    /// With the room made (what a control loop keeps: no call ever makes
+    /// it).
     pub fn new() -> Self {
-        Self { polygon: TensionPolygon::zeroed(), vertices: VertexList::new() }
+        Self { room: Some(PolygonRoom { polygon: TensionPolygon::zeroed(), vertices: VertexList::new() }) }
+    }
+
+    /// Without it: the first polygon method to run makes it (the methods
+    /// without a polygon, called once, clear nothing).
+    pub fn lazy() -> Self {
+        Self { room: None }
+    }
+
+    /// The room, made if it was not.
+    pub(crate) fn room(&mut self) -> &mut PolygonRoom<T, N, M> {
+        self.room.get_or_insert_with(|| PolygonRoom {
+            polygon: TensionPolygon::zeroed(),
+            vertices: VertexList::new(),
+        })
     }
 }
 
@@ -149,8 +171,10 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     limits: &TensionLimits<T, M>,
     previous: &PreviousCycle<T, M>,
 ) -> Result<Solution<T, M>, Error> {
-    // Filled in place: no factorisation moved through a `Result`.
-    let mut workspace = Workspace::new();
+    // Filled in place: no factorisation moved through a `Result`; the
+    // polygon's room is made only if the method has a polygon.
+    let mut workspace =
+        Workspace { factorization: WrenchFactorization::zeroed(), polygon: PolygonWork::lazy() };
     solve_with(method, &mut workspace, w, f, limits, previous)
 }
 
@@ -242,7 +266,7 @@ macro_rules! methods {
                 if !self.supports(N, M) {
                     return Err(Error::UnsupportedShape);
                 }
-                self.dispatch(problem, previous, &mut PolygonWork::new())
+                self.dispatch(problem, previous, &mut PolygonWork::lazy())
             }
 
             /// The method's module, for a shape already checked.
