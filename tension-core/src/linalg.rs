@@ -242,9 +242,32 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
 }
 
 /// `sum a_i b_i` over the shorter of the two slices.
+///
+/// On the board (an in-order FPU with a multiply-accumulate instruction)
+/// one running sum, one `vmla` a term. On a host four sums of every fourth
+/// term, added pairwise at the end: the same terms in another order, which
+/// the compiler keeps in vector registers (a single running sum must be
+/// added one term at a time, each addition waiting for the one before).
 #[inline]
 fn dot<T: Real>(a: &[T], b: &[T]) -> T {
-    a.iter().zip(b).fold(T::zero(), |s, (&x, &y)| s + x * y)
+    #[cfg(target_os = "none")]
+    {
+        a.iter().zip(b).fold(T::zero(), |s, (&x, &y)| s + x * y)
+    }
+    #[cfg(not(target_os = "none"))]
+    {
+        let n = a.len().min(b.len());
+        let (a, b) = (&a[..n], &b[..n]);
+        let mut sums = [T::zero(); 4];
+        let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+        let tail = a4.remainder().iter().zip(b4.remainder()).fold(T::zero(), |s, (&x, &y)| s + x * y);
+        for (qa, qb) in a4.zip(b4) {
+            for i in 0..4 {
+                sums[i] += qa[i] * qb[i];
+            }
+        }
+        ((sums[0] + sums[2]) + (sums[1] + sums[3])) + tail
+    }
 }
 
 /// Solves `a x = b` for a symmetric positive definite matrix stored in the
