@@ -72,7 +72,10 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
             poly.lower[k] = limits.min()[k] - self.particular[k];
             poly.upper[k] = limits.max()[k] - self.particular[k];
         }
-        poly.prepare()
+        // The rows are the factorisation's null space (checked finite
+        // there), the bounds finite limits minus the finite particular
+        // solution (the limits are far below the largest float).
+        poly.prepare_finite()
     }
 
     /// Tensions at null-space coordinates `lambda`.

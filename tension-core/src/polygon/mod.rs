@@ -244,12 +244,20 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 
     /// Checks `rows`, `lower` and `upper` and derives the rest ([`Self::new`]).
     pub(crate) fn prepare(&mut self) -> Result<(), Error> {
-        if M > 32 {
-            return Err(Error::UnsupportedShape);
-        }
         let rows_finite = all_finite(self.rows.iter().flat_map(|r| [r.x, r.y]));
         if !(rows_finite && finite(&self.lower) && finite(&self.upper)) {
             return Err(Error::NonFinite);
+        }
+        self.prepare_finite()
+    }
+
+    /// [`Self::prepare`] for `rows`, `lower` and `upper` known to be finite
+    /// (the tension polygon's: null-space rows the factorisation checked,
+    /// limits [`crate::TensionLimits`] keeps finite minus a particular
+    /// solution checked finite).
+    pub(crate) fn prepare_finite(&mut self) -> Result<(), Error> {
+        if M > 32 {
+            return Err(Error::UnsupportedShape);
         }
         // The tolerances scale with the limits' offsets alone (no floor of
         // 1 N): the same problem in other units gets the same answer.
