@@ -36,10 +36,6 @@ pub struct WrenchFactorization<T: Real, const N: usize, const M: usize> {
     beta: SVector<T, N>,
     /// Diagonal of `R`.
     rdiag: SVector<T, N>,
-    /// `1 / R_kk`: the substitutions multiply (a division's latency on a
-    /// host is several multiplications', and it sits on their dependency
-    /// chain).
-    rinv: SVector<T, N>,
     /// Null-space basis in columns `0..M - N` (only the first
     /// [`Self::factor`]'s `null_columns` of them are filled).
     z: SMatrix<T, M, M>,
@@ -70,7 +66,6 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             v: SMatrix::zeros(),
             beta: SVector::zeros(),
             rdiag: SVector::zeros(),
-            rinv: SVector::zeros(),
             z: SMatrix::zeros(),
         }
     }
@@ -185,7 +180,6 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             if self.rdiag[i].abs() <= threshold {
                 return Err(Error::Singular);
             }
-            self.rinv[i] = T::one() / self.rdiag[i];
         }
         Ok(())
     }
@@ -223,7 +217,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             for (&r, &tk) in column.iter().zip(t.iter()).take(i) {
                 s -= r * tk;
             }
-            t[i] = s * self.rinv[i];
+            t[i] = s / self.rdiag[i];
         }
         self.apply_q(&mut t);
         t

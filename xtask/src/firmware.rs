@@ -43,9 +43,10 @@ const DEMO: &str = "demo";
 /// FPU's square root, the unit-normal walk and the step's copies of
 /// issue 17, 16,468 before the kept polygon room and the kinematics built
 /// in place, 15,827 before the setpoint and the estimate were copied once
-/// instead of twice), below the [`BUDGET`]. Other robots' steps are held
-/// to the budget.
-const REGRESSION_CEILING: u32 = 15_700;
+/// instead of twice; 15,102 since the factorisation works on its columns as
+/// arrays and checks what it keeps), below the [`BUDGET`]. Other robots'
+/// steps are held to the budget.
+const REGRESSION_CEILING: u32 = 15_300;
 
 /// The ceiling of `robot`'s worst step: [`REGRESSION_CEILING`] for the
 /// default robot, [`BUDGET`] for others.
