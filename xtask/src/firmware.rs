@@ -620,8 +620,8 @@ mod tests {
         Report {
             instructions: true,
             cycles: 4000,
-            step: Spread { min: 11_189, median: 12_155, max: 15_489 },
-            solver: Spread { min: 8_035, median: 8_808, max: 12_630 },
+            step: Spread { min: 10_898, median: 11_747, max: 15_090 },
+            solver: Spread { min: 6_023, median: 6_719, max: 10_069 },
             overruns: 0,
             calibration_ticks: 160_000,
             calibration_expected: 160_000,
