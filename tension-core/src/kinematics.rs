@@ -383,36 +383,29 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
                 v
             }
         };
+        // Built element by element (`from_fn`): nothing zeroed first and
+        // then copied in (two 192-byte copies on a host).
+        let attachments: [Vector3<T>; M] = core::array::from_fn(|i| match self.kind {
+            RobotKind::Planar2 => Vector3::zeros(),
+            _ => flatten(rot * self.attachments[i]),
+        });
+        let vectors: [Vector3<T>; M] =
+            core::array::from_fn(|i| flatten(self.anchors[i]) - p - attachments[i]);
+        let lengths = SVector::<T, M>::from_fn(|i, _| vectors[i].norm_squared().sqrt_native());
         let mut size = amax3(&p);
-        let mut state = CableState {
-            lengths: SVector::zeros(),
-            directions: [Vector3::zeros(); M],
-            attachments: [Vector3::zeros(); M],
-        };
         for i in 0..M {
-            let rb = match self.kind {
-                RobotKind::Planar2 => Vector3::zeros(),
-                _ => flatten(rot * self.attachments[i]),
-            };
-            let anchor = flatten(self.anchors[i]);
-            size = max(max(size, amax3(&anchor)), amax3(&rb));
-            let l = anchor - p - rb;
-            let length = l.norm_squared().sqrt_native();
-            if !finite(l.as_slice()) || !length.is_finite() {
+            size = max(max(size, amax3(&flatten(self.anchors[i]))), amax3(&attachments[i]));
+            if !finite(vectors[i].as_slice()) || !lengths[i].is_finite() {
                 return Err(Error::NonFinite);
             }
-            state.lengths[i] = length;
-            state.attachments[i] = rb;
-            state.directions[i] = l; // normalised below, once the size is known
         }
+        // The directions once the size is known.
         let floor = tolerance::degenerate_length(size);
-        for i in 0..M {
-            if !greater(state.lengths[i], floor) {
-                return Err(Error::DegenerateCable);
-            }
-            state.directions[i] /= state.lengths[i];
+        if !lengths.iter().all(|&length| greater(length, floor)) {
+            return Err(Error::DegenerateCable);
         }
-        Ok(state)
+        let directions = core::array::from_fn(|i| vectors[i] / lengths[i]);
+        Ok(CableState { lengths, directions, attachments })
     }
 
     /// The wrench matrix `W` (`N x M`) at a pose (conventions).
