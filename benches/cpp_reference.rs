@@ -32,13 +32,9 @@
 //!   (`STATUS` is `ok` or the error's status word, the tensions only with
 //!   `ok`); the barycenter solved cold.
 
-use std::{
-    fmt::Write as _,
-    hint::black_box,
-    time::{Duration, Instant},
-};
+use std::{fmt::Write as _, hint::black_box, time::Duration};
 
-use cdpr_integration_tests::{shipped_robot, smooth_path};
+use cdpr_integration_tests::{median_time_per_call, shipped_robot, smooth_path, IPANEMA1_PATH};
 use nalgebra::{SMatrix, SVector};
 use tension_core::{Method, Robot, TensionSolver};
 
@@ -53,7 +49,7 @@ const POSES: usize = 1000;
 const ROUNDS: usize = 20;
 
 /// IPAnema 1's path in `native_flags`: centre, amplitudes, tilts.
-const PATH: [[f64; 3]; 3] = [[0.0, 0.0, 1.0], [0.4, 0.25, 0.1], [0.02, 0.02, 0.05]];
+const PATH: [[f64; 3]; 3] = IPANEMA1_PATH;
 
 /// The methods timed, warm (the solver's carried state) or cold.
 const METHODS: [(Method, bool); 6] = [
@@ -118,18 +114,10 @@ fn poses_file(robot: &Robot<f64, 6, 8>, path: &[SVector<f64, 6>], problems: &[Po
     text
 }
 
-/// Median time per call of `call(k)` over the poses, `ROUNDS` rounds.
+/// Median time per call of `call(k)` over the poses, `ROUNDS` rounds
+/// (`native_flags`' protocol).
 fn median(mut call: impl FnMut(usize)) -> Duration {
-    let mut times = Vec::with_capacity(ROUNDS * POSES);
-    for _ in 0..ROUNDS {
-        for k in 0..POSES {
-            let start = Instant::now();
-            call(k);
-            times.push(start.elapsed());
-        }
-    }
-    times.sort_unstable();
-    times[times.len() / 2]
+    median_time_per_call(ROUNDS, POSES, &mut call)
 }
 
 fn main() {

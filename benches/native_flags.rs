@@ -16,13 +16,11 @@
 //! Ratios, not absolute times, carry over between machines; a native build
 //! is only for the machine it was built on.
 
-use std::{
-    hint::black_box,
-    process::Command,
-    time::{Duration, Instant},
-};
+use std::{hint::black_box, process::Command, time::Duration};
 
-use cdpr_integration_tests::{shipped_robot, smooth_path};
+use cdpr_integration_tests::{
+    median_time_per_call, shipped_robot, smooth_path, IPANEMA1_PATH, SUSPENDED8_PATH,
+};
 use criterion::Criterion;
 use nalgebra::SVector;
 use tension_core::{Method, Real, Robot, TensionSolver};
@@ -89,20 +87,6 @@ fn timed<'a, T: Real>(robot: &'a Robot<T, 6, 8>, path: &'a [SVector<T, 6>]) -> V
     all
 }
 
-/// Median time per call over the path, `ROUNDS` rounds, each call timed.
-fn median(call: &mut dyn FnMut(usize)) -> Duration {
-    let mut times = Vec::with_capacity(ROUNDS * 1000);
-    for _ in 0..ROUNDS {
-        for k in 0..1000 {
-            let start = Instant::now();
-            call(k);
-            times.push(start.elapsed());
-        }
-    }
-    times.sort_unstable();
-    times[times.len() / 2]
-}
-
 /// The rows `(table, name, median)` of one robot in precision `T`; each
 /// call measured by criterion too unless `child`.
 fn rows<T: Real>(c: &mut Criterion, child: bool, label: &str, robot: &str, shape: [[f64; 3]; 3]) -> Vec<Row> {
@@ -128,14 +112,19 @@ fn rows<T: Real>(c: &mut Criterion, child: bool, label: &str, robot: &str, shape
     }
     calls
         .iter_mut()
-        .map(|(name, call)| (label.to_string(), name.clone(), median(call.as_mut()).as_secs_f64() * 1e9))
+        .map(|(name, call)| {
+            (
+                label.to_string(),
+                name.clone(),
+                median_time_per_call(ROUNDS, 1000, call.as_mut()).as_secs_f64() * 1e9,
+            )
+        })
         .collect()
 }
 
 /// This build's table.
 fn table(c: &mut Criterion, child: bool) -> Vec<Row> {
-    let suspended = [[0.0, 0.0, 1.5], [0.6, 0.4, 0.3], [0.05, 0.05, 0.15]];
-    let ipanema = [[0.0, 0.0, 1.0], [0.4, 0.25, 0.1], [0.02, 0.02, 0.05]];
+    let (suspended, ipanema) = (SUSPENDED8_PATH, IPANEMA1_PATH);
     let mut all = rows::<f64>(c, child, "suspended-8 f64", "suspended-8", suspended);
     all.extend(rows::<f32>(c, child, "suspended-8 f32", "suspended-8", suspended));
     all.extend(rows::<f64>(c, child, "ipanema1 f64", "ipanema1", ipanema));

@@ -389,12 +389,12 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
             RobotKind::Planar2 => Vector3::zeros(),
             _ => flatten(rot * self.attachments[i]),
         });
-        let vectors: [Vector3<T>; M] =
-            core::array::from_fn(|i| flatten(self.anchors[i]) - p - attachments[i]);
+        let anchors: [Vector3<T>; M] = core::array::from_fn(|i| flatten(self.anchors[i]));
+        let vectors: [Vector3<T>; M] = core::array::from_fn(|i| anchors[i] - p - attachments[i]);
         let lengths = SVector::<T, M>::from_fn(|i, _| vectors[i].norm_squared().sqrt_native());
         let mut size = amax3(&p);
         for i in 0..M {
-            size = max(max(size, amax3(&flatten(self.anchors[i]))), amax3(&attachments[i]));
+            size = max(max(size, amax3(&anchors[i])), amax3(&attachments[i]));
             if !finite(vectors[i].as_slice()) || !lengths[i].is_finite() {
                 return Err(Error::NonFinite);
             }

@@ -3,7 +3,10 @@
 //! `tension-core`'s own algorithms (different decompositions, a different
 //! polygon construction), so that a bug in one is not copied into the check.
 
-use std::path::PathBuf;
+use std::{
+    path::PathBuf,
+    time::{Duration, Instant},
+};
 
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use proptest::{
@@ -73,6 +76,29 @@ pub fn smooth_path<T: Real>(
             })
         })
         .collect()
+}
+
+/// [`smooth_path`]'s shape (centre, amplitudes, tilts) for suspended-8 in
+/// the benchmarks.
+pub const SUSPENDED8_PATH: [[f64; 3]; 3] = [[0.0, 0.0, 1.5], [0.6, 0.4, 0.3], [0.05, 0.05, 0.15]];
+
+/// [`smooth_path`]'s shape for IPAnema 1 in the benchmarks.
+pub const IPANEMA1_PATH: [[f64; 3]; 3] = [[0.0, 0.0, 1.0], [0.4, 0.25, 0.1], [0.02, 0.02, 0.05]];
+
+/// The benchmarks' timing protocol: the median time per call of `call(k)`
+/// over `poses` poses (`k` in `0..poses`) and `rounds` rounds, each call
+/// timed on its own.
+pub fn median_time_per_call(rounds: usize, poses: usize, call: &mut dyn FnMut(usize)) -> Duration {
+    let mut times = Vec::with_capacity(rounds * poses);
+    for _ in 0..rounds {
+        for k in 0..poses {
+            let start = Instant::now();
+            call(k);
+            times.push(start.elapsed());
+        }
+    }
+    times.sort_unstable();
+    times[times.len() / 2]
 }
 
 /// Loads `robots/<name>.toml` as an `N x M` robot.

@@ -100,11 +100,17 @@ pub(crate) struct PolygonRoom<T: Real, const N: usize, const M: usize> {
     pub(crate) vertices: VertexList<T, M>,
 }
 
+impl<T: Real, const N: usize, const M: usize> PolygonRoom<T, N, M> {
+    fn new() -> Self {
+        Self { polygon: TensionPolygon::zeroed(), vertices: VertexList::new() }
+    }
+}
+
 impl<T: Real, const N: usize, const M: usize> PolygonWork<T, N, M> {
     /// With the room made (what a control loop keeps: no call ever makes
     /// it).
     pub fn new() -> Self {
-        Self { room: Some(PolygonRoom { polygon: TensionPolygon::zeroed(), vertices: VertexList::new() }) }
+        Self { room: Some(PolygonRoom::new()) }
     }
 
     /// Without it: the first polygon method to run makes it (the methods
@@ -115,10 +121,7 @@ impl<T: Real, const N: usize, const M: usize> PolygonWork<T, N, M> {
 
     /// The room, made if it was not.
     pub(crate) fn room(&mut self) -> &mut PolygonRoom<T, N, M> {
-        self.room.get_or_insert_with(|| PolygonRoom {
-            polygon: TensionPolygon::zeroed(),
-            vertices: VertexList::new(),
-        })
+        self.room.get_or_insert_with(PolygonRoom::new)
     }
 }
 
