@@ -67,12 +67,16 @@ pub fn equality<T: Real>(scale: T) -> T {
     T::lit(1.0e3) * T::eps() * scale
 }
 
-/// The rounding floor of a gradient `g`: `64 eps |g|`. Close to a limit the
-/// barrier's terms are large and so is their rounding; a stopping rule
+/// The rounding floor of a barrier's gradient `g` at an iterate `t` with
+/// the (diagonal) Hessian `H`: `64 eps |g| + eps |H t|`. Close to a limit the
+/// barrier's terms are large and so is their rounding (the first term); and
+/// `t` itself is only known to one ulp of each tension, `eps |t_i|`, which
+/// moves the gradient by `h_ii eps |t_i|` (the second: near a limit `h_ii`
+/// is the inverse squared slack, and this term dominates). A stopping rule
 /// below this floor could never be met.
 #[inline]
-pub fn gradient_rounding<T: Real>(gradient_norm: T) -> T {
-    T::lit(64.0) * T::eps() * gradient_norm
+pub fn gradient_rounding<T: Real>(gradient_norm: T, hessian_times_iterate_norm: T) -> T {
+    T::lit(64.0) * T::eps() * gradient_norm + T::eps() * hessian_times_iterate_norm
 }
 
 /// The analytic centre's default stopping tolerance (dimensionless):

@@ -210,8 +210,12 @@ impl<T: Real, const M: usize> AnalyticCentre<'_, T, M> {
             let step_p = fact.min_norm_solution(&(f - w * t));
             let terms = self.newton_terms(fact, &t, &step_p, limits, &mut hr);
             // Never below the rounding floor of the gradient: close to a limit
-            // its terms are large, and so is their rounding (64 eps |grad|).
-            let rounding = tolerance::gradient_rounding(terms.grad.norm_squared().sqrt_native()) * half_range;
+            // its terms are large, and so is their rounding (64 eps |grad|),
+            // and the iterate itself is known to one ulp of each tension,
+            // which moves the gradient by the Hessian times that (eps |H t|).
+            let hessian_iterate = terms.box_hessian.component_mul(&t).norm_squared().sqrt_native();
+            let rounding =
+                tolerance::gradient_rounding(terms.grad.norm_squared().sqrt_native(), hessian_iterate) * half_range;
             if on_sigma && terms.reduced_grad_norm * half_range <= self.settings.tolerance.max(rounding) {
                 // Limits near the largest float can put W t beyond it: such
                 // a result cannot be checked, so it is not returned.
