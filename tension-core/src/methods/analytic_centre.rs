@@ -11,8 +11,10 @@
 //! `(Z^T H Z) dl = -Z^T (grad + H W^+ (f - W t))`. The stopping rule is the
 //! norm of the optimality conditions (their Eq. 15): with the multipliers
 //! eliminated, `|Z^T grad phi|` (made dimensionless by the half-range of the
-//! limits, and never below the rounding floor `64 eps |grad phi|`, the larger
-//! one close to a limit in `f32`) and `W t = f`. Each line search halves the
+//! limits, and never below the rounding floor `64 eps |grad phi| + eps |H t|`,
+//! the larger one close to a limit: the gradient's own rounding and that of
+//! the iterate, one ulp of each tension, through the box Hessian `H`) and
+//! `W t = f`. Each line search halves the
 //! step at most 24 times.
 //!
 //! **Start.** Newton needs a point strictly inside the domain (the box and
