@@ -336,17 +336,8 @@ fn border_sweep<const M: usize>(
     half: [f64; 4],
     count: usize,
 ) -> usize {
-    let mut state = 99u64;
-    let mut uniform = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
     let mut solved = 0;
-    for _ in 0..count {
-        let pose = SVector::<f64, 6>::from_fn(|i, _| match i {
-            0..=2 => centre[i] + half[i] * uniform(),
-            _ => half[3] * uniform(),
-        });
+    for pose in cdpr_integration_tests::frame_poses(centre, half, count, 99) {
         let (Ok(w), Ok(f)) =
             (robot.wrench_matrix(&pose), robot.required_wrench(&pose, &SVector::zeros(), None))
         else {

@@ -224,19 +224,7 @@ fn warm_never_fails_where_cold_succeeds<const M: usize>(
     count: usize,
     seed: u64,
 ) {
-    let mut state = seed;
-    let mut uniform = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    let poses: Vec<SVector<f64, 6>> = (0..count)
-        .map(|_| {
-            SVector::from_fn(|i, _| match i {
-                0..=2 => centre[i] + half_size[i] * uniform(),
-                _ => half_size[3] * uniform(),
-            })
-        })
-        .collect();
+    let poses = cdpr_integration_tests::frame_poses(centre, half_size, count, seed);
     for method in Method::ALL.into_iter().filter(|m| m.warm_starts() && m.supports(6, M)) {
         let mut warm = TensionSolver::<f64, M>::new(method);
         let mut cold_ok = 0;

@@ -101,6 +101,26 @@ pub fn median_time_per_call(rounds: usize, poses: usize, call: &mut dyn FnMut(us
     times[times.len() / 2]
 }
 
+/// `count` poses uniform over a box of the frame (`centre +- half_size` for
+/// the position, `+- half_size[3]` rad for each angle), far outside the
+/// workspace included, in a fixed order from `seed` (a 64-bit LCG: no
+/// smoothness for a warm start to use).
+pub fn frame_poses(centre: [f64; 3], half_size: [f64; 4], count: usize, seed: u64) -> Vec<SVector<f64, 6>> {
+    let mut state = seed;
+    let mut uniform = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    (0..count)
+        .map(|_| {
+            SVector::from_fn(|i, _| match i {
+                0..=2 => centre[i] + half_size[i] * uniform(),
+                _ => half_size[3] * uniform(),
+            })
+        })
+        .collect()
+}
+
 /// Loads `robots/<name>.toml` as an `N x M` robot.
 pub fn shipped_robot<T: Real, const N: usize, const M: usize>(name: &str) -> Robot<T, N, M> {
     let path = robots_dir().join(format!("{name}.toml"));
