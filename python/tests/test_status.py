@@ -75,9 +75,10 @@ def cases(robots):
         "infeasible": (s8, "barycenter", [0, 0, 5.0, 0, 0, 0], None),
         "singular": (cdpr.Robot.from_dict(singular), "closed-form", [0, 0, 1.5, 0, 0, 0], None),
         "degenerate-cable": (p4, "barycenter", [0.0, 0.0], None),
-        # Found by a random search: the analytic centre's Newton iteration
-        # hits its cap here (the barycenter finds tensions at this pose).
-        "no-convergence": (p4, "analytic-centre", [2.929, 0.733], [60.0, -61.5]),
+        # Found by bisection on the extra wrench to the border of the
+        # wrench-feasible set: tensions exist (min-2-norm finds them, 2e-11 N
+        # from the limits) but Newton has no interior to centre in.
+        "no-convergence": (p4, "analytic-centre", [1.5, 1.5], [298.7747468306154, 0.0]),
         "method-failed": (s8, "closed-form", [1.2, 0.8, 1.0, 0, 0, 0], None),
     }
 
