@@ -6,12 +6,7 @@
 //! Cost: one Householder factorisation (`O(N^2 M)`), then the walk: with a
 //! held warm start `O(M^2)`; cold, `O(M^2)` to clip every line against the
 //! other cables, and the exhaustive `4 C(M,2)` line pairs (`O(M^3)`) only for
-//! lines the clipping cannot rule out. Should the centroid leave the limits
-//! (a sliver between lines closer to parallel than the walk resolves, where
-//! a long edge drifts past a line it takes as never reached), a second,
-//! careful walk checks every step for that (`O(M)` more per vertex); should
-//! its centroid leave them too, the answer is `no-convergence`, never
-//! `infeasible` (vertices were found).
+//! lines the clipping cannot rule out.
 
 use super::{PolygonRoom, PolygonWork, Problem, PreviousCycle};
 use crate::{Error, Real, Solution};
@@ -36,13 +31,5 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     let PolygonRoom { polygon: poly, vertices } = work.room();
     poly.set(problem.factorization, problem.f, problem.limits)?;
     let found = poly.polygon.walk_into(previous.active_pair, vertices)?;
-    match poly.centroid_solution(&found, problem.limits, previous.active_pair) {
-        // The centroid left the limits: the walk went past a line it took
-        // as parallel to an edge (a sliver). Again, checking every step.
-        Err(Error::NoConvergence) => {
-            let found = poly.polygon.walk_into_careful(previous.active_pair, vertices)?;
-            poly.centroid_solution(&found, problem.limits, previous.active_pair)
-        }
-        result => result,
-    }
+    poly.centroid_solution(&found, problem.limits, previous.active_pair)
 }

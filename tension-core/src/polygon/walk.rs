@@ -27,29 +27,6 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         warm: Option<ActivePair>,
         vertices: &mut VertexList<T, M>,
     ) -> Result<PolygonSummary<T>, Error> {
-        self.walk_into_checking::<false>(warm, vertices)
-    }
-
-    /// [`Self::walk_into`] checking at every step whether the edge leaves a
-    /// limit whose line is within the parallel threshold of it before the
-    /// step ends ([`Self::drift_past`]), which the plain walk takes as never
-    /// reached: on a sliver between lines close to parallel, along a long
-    /// edge, it is, and the plain walk's vertices leave the limits. About
-    /// `O(M)` more per vertex; for a second walk when the first one's
-    /// centroid left the limits.
-    pub fn walk_into_careful(
-        &self,
-        warm: Option<ActivePair>,
-        vertices: &mut VertexList<T, M>,
-    ) -> Result<PolygonSummary<T>, Error> {
-        self.walk_into_checking::<true>(warm, vertices)
-    }
-
-    fn walk_into_checking<const CAREFUL: bool>(
-        &self,
-        warm: Option<ActivePair>,
-        vertices: &mut VertexList<T, M>,
-    ) -> Result<PolygonSummary<T>, Error> {
         let mut held = false;
         let mut start = None;
         if let Some(pair) = warm {
@@ -64,7 +41,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             Some(v) => v,
             None => self.first_vertex().ok_or(Error::Infeasible)?,
         };
-        match self.walk_from::<CAREFUL>(start, vertices) {
+        match self.walk_from(start, vertices) {
             Some(robust_pair) => self.finish(vertices, Some(robust_pair), held),
             // An anomaly (an edge met twice, on a sliver): every vertex by
             // the pairs of the lines the clipping does not prove empty (the
@@ -82,11 +59,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// most one division for the limit the edge approaches (Eqs. 16-18), then
     /// the smallest step (Eq. 19) and, among lines reached at the same point,
     /// the edge-supporting one (Sect. 2.3).
-    fn walk_from<const CAREFUL: bool>(
-        &self,
-        start: Vertex<T>,
-        vertices: &mut VertexList<T, M>,
-    ) -> Option<ActivePair> {
+    fn walk_from(&self, start: Vertex<T>, vertices: &mut VertexList<T, M>) -> Option<ActivePair> {
         vertices.clear();
         vertices.push(start).ok()?;
         // Every test below is on the unit-normal lines (`UnitLines`): slacks
@@ -206,32 +179,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 best_margin = margin;
                 best_lines = (pc_line(prev), h as u8);
             }
-            let alpha = max(alpha_min, T::zero());
-            let drift = if CAREFUL { self.drift_past(hc, &v, &d, alpha) } else { None };
-            if let Some((k, nd, slack)) = drift {
-                // The edge leaves a (nearly) parallel cable's limit first:
-                // the next vertex is where it crosses that limit, a crossing
-                // `intersect` does not resolve, known along the edge to the
-                // two lines' tolerances over the sine of their angle.
-                let g = if nd > T::zero() { 2 * k + 1 } else { 2 * k };
-                if g == first_edge {
-                    return Some(pair_of(best_lines));
-                }
-                if visited & (1 << g) != 0 {
-                    return None;
-                }
-                visited |= 1 << g;
-                let w = v + d * max(slack / nd.abs(), T::zero());
-                let error = (u.tol[hc] + u.tol[k]) / nd.abs();
-                vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
-                prev = Some(h);
-                h = g;
-                v = w;
-                continue;
-            }
             if !any {
                 return None;
             }
+            let alpha = max(alpha_min, T::zero());
             // Among lines reached there (ties: concurrent lines, Sect. 2.3),
             // the edge-supporting one bounds the normal cone: the largest
             // counter-clockwise angle from the current normal. A line's slack
@@ -280,34 +231,6 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             v = w;
         }
         None
-    }
-}
-
-impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
-    /// The cable whose limit the edge from `v` along the unit `d` (on a
-    /// line of cable `own`) crosses beyond its tolerance first, if before
-    /// the step `alpha`: its rate `u_k . d` and its slack at `v` to the
-    /// limit it approaches. Only a line within the parallel threshold of
-    /// the edge, which the walk takes as never reached, can (the others are
-    /// reached at `alpha` or later).
-    fn drift_past(&self, own: usize, v: &Vector2<T>, d: &Vector2<T>, alpha: T) -> Option<(usize, T, T)> {
-        let u = &self.unit;
-        let mut first: Option<(usize, T, T)> = None;
-        let mut reach_min = alpha;
-        for k in 0..M {
-            let nd = u.ux[k] * d.x + u.uy[k] * d.y;
-            if k == own || nd == T::zero() {
-                continue;
-            }
-            let nv = u.ux[k] * v.x + u.uy[k] * v.y;
-            let slack = if nd > T::zero() { u.hi[k] - nv } else { nv - u.lo[k] };
-            let reach = (slack + u.tol[k]) / nd.abs();
-            if reach < reach_min {
-                reach_min = reach;
-                first = Some((k, nd, slack));
-            }
-        }
-        first
     }
 }
 
