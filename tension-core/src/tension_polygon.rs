@@ -92,18 +92,10 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
     ) -> Result<Solution<T, M>, Error> {
         let tensions = self.tensions(&found.centroid);
         let robustness = robustness(&tensions, limits);
-        if !finite(tensions.as_slice()) {
-            return Err(Error::NonFinite);
-        }
         // The centroid lies in the polygon; rounding may put a degenerate
         // (zero-area) one a few ulps outside, never more than the tolerance.
-        // Further out, the vertices it is made of are wrong (a walk that
-        // took a line closer to parallel than it resolves for one never
-        // reached, along an edge long enough for that line to cross it):
-        // no proof that the polygon, whose first vertex satisfied every
-        // half-plane, is empty.
-        if robustness < -self.polygon.tolerance() {
-            return Err(Error::NoConvergence);
+        if robustness < -self.polygon.tolerance() || !finite(tensions.as_slice()) {
+            return Err(Error::Infeasible);
         }
         Ok(Solution {
             tensions,
