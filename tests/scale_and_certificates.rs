@@ -364,7 +364,7 @@ fn analytic_centre_decides_where_its_hessian_rounds_indefinite() {
 /// for such a crossing) passes this test but, on the stress set's border
 /// poses where the centroid check fails, costs two more walks (the careful
 /// one, then the cold retry of a `no-convergence`): barycenter worst
-/// 11 100 -> 33 162 on suspended-8's short stress run. Ignored until that
+/// 11 113 -> 33 162 on suspended-8's short stress run. Ignored until that
 /// cost fits the step.
 #[test]
 #[ignore = "open defect: f32 barycenter on a sub-resolution sliver (see the doc comment)"]
