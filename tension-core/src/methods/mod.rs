@@ -141,9 +141,15 @@ pub struct Workspace<T: Real, const N: usize, const M: usize> {
 }
 
 impl<T: Real, const N: usize, const M: usize> Workspace<T, N, M> {
-    /// Empty.
+    /// Empty, with the polygon's room made ([`PolygonWork::new`]).
     pub fn new() -> Self {
         Self { factorization: WrenchFactorization::zeroed(), polygon: PolygonWork::new() }
+    }
+
+    /// Empty, the polygon's room made only if a polygon method runs
+    /// ([`PolygonWork::lazy`]): for a one-off call.
+    fn lazy() -> Self {
+        Self { factorization: WrenchFactorization::zeroed(), polygon: PolygonWork::lazy() }
     }
 }
 
@@ -176,8 +182,7 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
 ) -> Result<Solution<T, M>, Error> {
     // Filled in place: no factorisation moved through a `Result`; the
     // polygon's room is made only if the method has a polygon.
-    let mut workspace =
-        Workspace { factorization: WrenchFactorization::zeroed(), polygon: PolygonWork::lazy() };
+    let mut workspace = Workspace::lazy();
     solve_with(method, &mut workspace, w, f, limits, previous)
 }
 
