@@ -192,6 +192,11 @@ pub struct FeasiblePolygon<T: Real, const M: usize> {
     /// The half-planes scaled to unit normals, for the walk's inner loops
     /// ([`UnitLines`]).
     unit: UnitLines<T, M>,
+    /// Twice the largest `tol_k / parallel` over the cables: along a unit
+    /// direction a line approached at a rate above `parallel` whose step
+    /// exceeds the smallest one by more than this is not reached within its
+    /// tolerance there (the walk's test for concurrent lines can skip it).
+    tie_gap: T,
 }
 
 /// Cable `k`'s two half-planes divided by `|n_k|`: `lo_k <= u_k . lambda
@@ -239,6 +244,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             parallel: T::zero(),
             ptol: z,
             unit: UnitLines { ux: z, uy: z, lo: z, hi: z, tol: z },
+            tie_gap: T::zero(),
         }
     }
 
@@ -293,6 +299,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             self.ptol[k] = parallel * self.norms[k];
         }
         let big = T::max_value().unwrap_or_else(T::one);
+        let mut tol_max = T::zero();
         for k in 0..M {
             let u = &mut self.unit;
             if self.used[k] {
@@ -302,6 +309,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 u.lo[k] = self.lower[k] * inv;
                 u.hi[k] = self.upper[k] * inv;
                 u.tol[k] = tol * inv;
+                tol_max = max(tol_max, u.tol[k]);
             } else {
                 (u.ux[k], u.uy[k], u.lo[k], u.hi[k], u.tol[k]) = (T::zero(), T::zero(), -big, big, T::zero());
             }
@@ -309,6 +317,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         self.tol = tol;
         self.inv_scale = if scale > T::zero() { T::one() / scale } else { T::one() };
         self.parallel = parallel;
+        self.tie_gap = T::lit(2.0) * tol_max / parallel;
         Ok(())
     }
 

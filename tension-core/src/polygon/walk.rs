@@ -148,7 +148,9 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // the edge). The same pass gives the margin of `v` (its smallest
             // slack to the lines of the cables that do not define it).
             let mut alpha_min = big;
-            let mut any = false;
+            // The second smallest step and the cable of the smallest.
+            let mut alpha_second = big;
+            let mut nearest = M;
             let mut margin = big;
             for k in 0..M {
                 let nv = u.ux[k] * v.x + u.uy[k] * v.y;
@@ -171,15 +173,21 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 slacks[k] = slack;
                 rates[k] = rate;
                 if rate != T::zero() {
-                    any = true;
-                    alpha_min = min(alpha_min, slack / rate.abs());
+                    let step = slack / rate.abs();
+                    if step < alpha_min {
+                        alpha_second = alpha_min;
+                        alpha_min = step;
+                        nearest = k;
+                    } else if step < alpha_second {
+                        alpha_second = step;
+                    }
                 }
             }
             if !skip_margin && margin > best_margin {
                 best_margin = margin;
                 best_lines = (pc_line(prev), h as u8);
             }
-            if !any {
+            if nearest == M {
                 return None;
             }
             let alpha = max(alpha_min, T::zero());
@@ -187,24 +195,31 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // the edge-supporting one bounds the normal cone: the largest
             // counter-clockwise angle from the current normal. A line's slack
             // at the step is `slack_k - alpha |u_k . d|` (`big` for a line
-            // never reached).
+            // never reached). When every other step exceeds the smallest by
+            // more than `tie_gap` no other line is reached within its
+            // tolerance (`|u_k . d| > parallel`), and the nearest cable's
+            // line is the one: the search below would find it alone.
             let mut next = None;
             let mut best_cos = big;
             let mut first_edge_cos = None;
-            for k in 0..M {
-                let rate = rates[k];
-                if slacks[k] - alpha * rate.abs() <= u.tol[k] {
-                    let (g, cos) = if rate > T::zero() {
-                        (2 * k + 1, u.ux[k] * o.x + u.uy[k] * o.y)
-                    } else {
-                        (2 * k, -(u.ux[k] * o.x + u.uy[k] * o.y))
-                    };
-                    if cos < best_cos {
-                        best_cos = cos;
-                        next = Some(g);
-                    }
-                    if g == first_edge {
-                        first_edge_cos = Some(cos);
+            if alpha_second - alpha > self.tie_gap {
+                next = Some(if rates[nearest] > T::zero() { 2 * nearest + 1 } else { 2 * nearest });
+            } else {
+                for k in 0..M {
+                    let rate = rates[k];
+                    if slacks[k] - alpha * rate.abs() <= u.tol[k] {
+                        let (g, cos) = if rate > T::zero() {
+                            (2 * k + 1, u.ux[k] * o.x + u.uy[k] * o.y)
+                        } else {
+                            (2 * k, -(u.ux[k] * o.x + u.uy[k] * o.y))
+                        };
+                        if cos < best_cos {
+                            best_cos = cos;
+                            next = Some(g);
+                        }
+                        if g == first_edge {
+                            first_edge_cos = Some(cos);
+                        }
                     }
                 }
             }
