@@ -786,15 +786,19 @@ impl ControlLoop {
                 let result = match &kinematics {
                     Err(e) => Err(*e),
                     Ok(k) => {
+                        // `W` factored once, for the estimator and the solver.
+                        let prepared = self.controller.prepare(k, clock);
+                        let t_estimate = clock.ticks();
                         // The estimate, about the setpoint.
                         // Written where it stays (an estimate is about 80
                         // bytes: no copy through a closure's return).
                         if let Some((lengths, _)) = &measured {
-                            let reference = Reference::of_setpoint(&setpoint.pose, k);
+                            let factorization = self.controller.factorization(&prepared);
+                            let reference = Reference::of_setpoint(&setpoint.pose, k, factorization);
                             self.estimator.about_into(reference, lengths, &mut estimate);
                         }
                         let t2 = clock.ticks();
-                        ticks.estimator = t2.wrapping_sub(t1);
+                        ticks.estimator = t2.wrapping_sub(t_estimate);
                         let age = now.wrapping_sub(arrived) as f32 * self.estimator.settings().period_s;
                         let dt = self.estimator.settings().period_s;
                         let joint = match (self.scheme, &measured, &estimate) {
@@ -832,13 +836,13 @@ impl ControlLoop {
                             offsets = j;
                         }
                         ticks.feedback = clock.since(t2);
-                        self.controller.finish(setpoint, k, &feedback, joint.as_ref(), clock, &mut ticks).map(
-                            |c| {
+                        self.controller
+                            .finish(setpoint, prepared, &feedback, joint.as_ref(), clock, &mut ticks)
+                            .map(|c| {
                                 let mut lengths = [0.0; CABLES];
                                 lengths.copy_from_slice(k.lengths.as_slice());
                                 (c, lengths)
-                            },
-                        )
+                            })
                     }
                 };
                 let cycle = Cycle { result: result.map(|(c, _)| c), ticks };

@@ -3,6 +3,7 @@
 //! torques, optionally with the winches' friction compensated
 //! ([`FrictionCompensation`]).
 
+use tension_core::linalg::WrenchFactorization;
 use tension_core::methods::Workspace;
 use tension_core::nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use tension_core::{Error, Method, Motion, Real, Robot, RobotKind, Solution, TensionSolver, WarmStart};
@@ -183,6 +184,25 @@ pub struct FrictionCompensation {
     pub viscous: f32,
 }
 
+/// A setpoint's kinematics with their `W` factored by
+/// [`Controller::prepare`] (or the error that stopped it), for
+/// [`Controller::finish`]: made only there, used once, so the
+/// factorisation the solver uses is that of these kinematics.
+#[derive(Debug)]
+pub struct Prepared<'k, const M: usize = CABLES> {
+    kinematics: &'k SetpointKinematics<M>,
+    factored: Result<(), Error>,
+    /// The factorisation's time, counted as the solver's.
+    ticks: u32,
+}
+
+impl<const M: usize> Prepared<'_, M> {
+    /// The kinematics prepared.
+    pub fn kinematics(&self) -> &SetpointKinematics<M> {
+        self.kinematics
+    }
+}
+
 /// The controller: the robot (6 DOF, `M` cables, by default the firmware's
 /// 8) and a warm-started tension solver. What reaches the winches is the
 /// [`crate::supervisor`]'s decision.
@@ -302,6 +322,31 @@ impl<const M: usize> Controller<M> {
     /// The tension distribution (warm-started from the previous success).
     pub fn solve(&mut self, w: &WrenchMatrix<M>, f: &Wrench) -> Result<Solution<f32, M>, Error> {
         self.solver.solve_with(&mut self.scratch, w, f, self.robot.limits())
+    }
+
+    /// Factors the setpoint's `W` for the solver (`W^T = Q R`, with the
+    /// null space when the method reads it), once a cycle: the estimator
+    /// reads it ([`Self::factorization`]) before [`Self::finish`] solves
+    /// with it.
+    pub fn prepare<'k, C: TickCounter>(
+        &mut self,
+        kinematics: &'k SetpointKinematics<M>,
+        clock: &C,
+    ) -> Prepared<'k, M> {
+        let t0 = clock.ticks();
+        let method = self.solver.method();
+        let factored = if method.supports(DOF, M) {
+            let columns = method.null_columns(DOF, M);
+            self.scratch.factorization.factor(&kinematics.w, &[true; M], columns)
+        } else {
+            Err(Error::UnsupportedShape)
+        };
+        Prepared { kinematics, factored, ticks: clock.since(t0) }
+    }
+
+    /// The factorisation [`Self::prepare`] made, if it succeeded.
+    pub fn factorization(&self, prepared: &Prepared<'_, M>) -> Option<&WrenchFactorization<f32, DOF, M>> {
+        prepared.factored.is_ok().then_some(&self.scratch.factorization)
     }
 
     /// Motor torques for a tension solution (no friction compensation).
@@ -428,25 +473,34 @@ impl<const M: usize> Controller<M> {
         Ok(SetpointKinematics { lengths, w, f, trig, omega })
     }
 
-    /// The rest of a cycle from [`Controller::kinematics`]: the tension
-    /// distribution of `f + feedback` (`feedback`: the wrench the cables
+    /// The rest of a cycle from [`Controller::kinematics`] and
+    /// [`Controller::prepare`]: the tension distribution of `f + feedback`
+    /// with the prepared factorisation (`feedback`: the wrench the cables
     /// add, base frame, about the platform origin), plus `offsets` per
     /// cable (N) if given, then the torques; `clock` times the solver and
     /// the torques into `ticks`.
     pub fn finish<C: TickCounter>(
         &mut self,
         setpoint: &Setpoint,
-        kinematics: &SetpointKinematics<M>,
+        prepared: Prepared<'_, M>,
         feedback: &Wrench,
         offsets: Option<&[f32; M]>,
         clock: &C,
         ticks: &mut PhaseTicks,
     ) -> Result<Command<M>, Error> {
         let t2 = clock.ticks();
+        let kinematics = prepared.kinematics;
         let f = kinematics.f + feedback;
-        let solution = self.solve(&kinematics.w, &f);
+        let solution = match prepared.factored {
+            Ok(()) => {
+                let Workspace { factorization, polygon } = &mut self.scratch;
+                self.solver.solve_factored(factorization, polygon, &kinematics.w, &f, self.robot.limits())
+            }
+            Err(e) => Err(e),
+        };
         let t3 = clock.ticks();
-        ticks.solver = t3.wrapping_sub(t2);
+        // The factorisation made by `prepare` counts as the solver's.
+        ticks.solver = t3.wrapping_sub(t2).wrapping_add(prepared.ticks);
         let friction = self.friction_forces(setpoint, &kinematics.w)?;
         let command = self.command_with(&solution?, &friction, offsets);
         ticks.torques = clock.since(t3);

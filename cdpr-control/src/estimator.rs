@@ -59,6 +59,7 @@
 //! After a gap (a failed step, a new homing) the first good estimate only
 //! restarts the difference.
 
+use tension_core::linalg::WrenchFactorization;
 use tension_core::nalgebra::{Matrix3, SVector, Vector3};
 use tension_core::Real;
 
@@ -148,7 +149,7 @@ impl EstimateError {
 }
 
 /// The reference pose of a step with its cable kinematics.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 pub struct Reference<'a> {
     /// The pose `x_r`.
     pub pose: &'a Pose6,
@@ -158,13 +159,23 @@ pub struct Reference<'a> {
     pub w: &'a WrenchMatrix,
     /// The sines and cosines of its angles.
     pub trig: &'a Trig,
+    /// `W_r^T = Q R` when the controller has factored it for the tension
+    /// solver ([`crate::controller::Controller::prepare`]): the step then
+    /// solves its normal equations through `R` (`W W^T = R^T R`) instead
+    /// of forming and factoring `W W^T`.
+    pub factorization: Option<&'a WrenchFactorization<f32, 6, CABLES>>,
 }
 
 impl<'a> Reference<'a> {
     /// The setpoint's, as the controller computed them
-    /// (`Controller::kinematics`).
-    pub fn of_setpoint(pose: &'a Pose6, k: &'a crate::controller::SetpointKinematics) -> Self {
-        Self { pose, lengths: &k.lengths, w: &k.w, trig: &k.trig }
+    /// (`Controller::kinematics`), with the solver's factorisation of its
+    /// `W` if there is one.
+    pub fn of_setpoint(
+        pose: &'a Pose6,
+        k: &'a crate::controller::SetpointKinematics,
+        factorization: Option<&'a WrenchFactorization<f32, 6, CABLES>>,
+    ) -> Self {
+        Self { pose, lengths: &k.lengths, w: &k.w, trig: &k.trig, factorization }
     }
 }
 
@@ -192,7 +203,13 @@ impl OwnedReference {
 
     /// As a [`Reference`].
     pub fn as_ref(&self) -> Reference<'_> {
-        Reference { pose: &self.pose, lengths: &self.lengths, w: &self.w, trig: &self.trig }
+        Reference {
+            pose: &self.pose,
+            lengths: &self.lengths,
+            w: &self.w,
+            trig: &self.trig,
+            factorization: None,
+        }
     }
 }
 
@@ -378,13 +395,8 @@ fn step(
 ) -> Result<(Pose6, [f32; 6], f32), EstimateError> {
     let ws = reference.w.as_slice();
     let mut b = [0.0f32; CABLES];
-    let mut a = [0.0f32; 21];
     let mut g = [0.0f32; 6];
     let mut finite = true;
-    for i in 0..CABLES {
-        let c = [ws[6 * i], ws[6 * i + 1], ws[6 * i + 2], ws[6 * i + 3], ws[6 * i + 4], ws[6 * i + 5]];
-        accumulate(&mut a, &c);
-    }
     for i in 0..CABLES {
         let bi = lengths[i] - reference.lengths[i];
         finite &= bi.is_finite();
@@ -395,6 +407,71 @@ fn step(
     }
     if !finite {
         return Err(EstimateError::NonFinite);
+    }
+    let delta = match reference.factorization {
+        Some(qr) => {
+            let minus_g = SVector::<f32, 6>::from_fn(|r, _| -g[r]);
+            let d = qr
+                .solve_gram(&minus_g, MIN_PIVOT, MIN_RELATIVE_PIVOT)
+                .ok_or(EstimateError::IllConditioned)?;
+            [d[0], d[1], d[2], d[3], d[4], d[5]]
+        }
+        None => normal_equations(ws, &g)?,
+    };
+    let max = settings.correction_max;
+    // `!(|d| <= max)` also catches NaN.
+    if delta.iter().any(|d| !(libm::fabsf(*d) <= max)) {
+        return Err(if delta.iter().all(|d| d.is_finite()) {
+            EstimateError::Correction
+        } else {
+            EstimateError::IllConditioned
+        });
+    }
+    let mut worst = 0.0f32;
+    for (i, bi) in b.iter().enumerate() {
+        let c = &ws[6 * i..6 * i + 6];
+        let r = bi
+            + c[0] * delta[0]
+            + c[1] * delta[1]
+            + c[2] * delta[2]
+            + c[3] * delta[3]
+            + c[4] * delta[4]
+            + c[5] * delta[5];
+        // Not `f32::max`: a library call on the M4F; a NaN stays.
+        let r = libm::fabsf(r);
+        if !(r <= worst) {
+            worst = r;
+        }
+    }
+    if !(worst <= settings.residual_max) {
+        return Err(EstimateError::Residual);
+    }
+    let x = reference.pose;
+    let de = reference.trig.euler_increment(&Vector3::new(delta[3], delta[4], delta[5]));
+    let pose =
+        Pose6::new(x[0] + delta[0], x[1] + delta[1], x[2] + delta[2], x[3] + de.x, x[4] + de.y, x[5] + de.z);
+    Ok((pose, delta, worst))
+}
+
+/// The smallest pivot `d_j` of `W W^T = L D L^T` accepted (`W`'s rows
+/// are unit vectors and moment arms in m).
+const MIN_PIVOT: f32 = 1e-12;
+
+/// The smallest pivot accepted relative to its diagonal entry
+/// `(W W^T)_jj`: below it the reference is too close to singular for a
+/// step.
+const MIN_RELATIVE_PIVOT: f32 = 1e-6;
+
+/// `delta` of `A delta = -g` (`A = W W^T`, formed cable by cable: its
+/// lower triangle, 21 entries) by `L D L^T` without square roots, about
+/// 250 multiply-adds: when no factorisation of `W` is shared.
+// Index loops the compiler unrolls; negated comparisons that also catch NaN.
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+fn normal_equations(ws: &[f32], g: &[f32; 6]) -> Result<[f32; 6], EstimateError> {
+    let mut a = [0.0f32; 21];
+    for i in 0..CABLES {
+        let c = [ws[6 * i], ws[6 * i + 1], ws[6 * i + 2], ws[6 * i + 3], ws[6 * i + 4], ws[6 * i + 5]];
+        accumulate(&mut a, &c);
     }
     // A = L D L^T in place: L below the diagonal, D on it. Every loop
     // runs to the constant 6 with its condition inside, so the compiler
@@ -416,7 +493,7 @@ fn step(
             }
         }
         // Positive definite, with a margin for the rounding of A's entries.
-        if !(d > 1e-6 * libm::fabsf(l[j][j]) && d > 1e-12) {
+        if !(d > MIN_RELATIVE_PIVOT * libm::fabsf(l[j][j]) && d > MIN_PIVOT) {
             return Err(EstimateError::IllConditioned);
         }
         l[j][j] = d;
@@ -457,39 +534,7 @@ fn step(
         }
         delta[i] = x;
     }
-    let max = settings.correction_max;
-    // `!(|d| <= max)` also catches NaN.
-    if delta.iter().any(|d| !(libm::fabsf(*d) <= max)) {
-        return Err(if delta.iter().all(|d| d.is_finite()) {
-            EstimateError::Correction
-        } else {
-            EstimateError::IllConditioned
-        });
-    }
-    let mut worst = 0.0f32;
-    for (i, bi) in b.iter().enumerate() {
-        let c = &ws[6 * i..6 * i + 6];
-        let r = bi
-            + c[0] * delta[0]
-            + c[1] * delta[1]
-            + c[2] * delta[2]
-            + c[3] * delta[3]
-            + c[4] * delta[4]
-            + c[5] * delta[5];
-        // Not `f32::max`: a library call on the M4F; a NaN stays.
-        let r = libm::fabsf(r);
-        if !(r <= worst) {
-            worst = r;
-        }
-    }
-    if !(worst <= settings.residual_max) {
-        return Err(EstimateError::Residual);
-    }
-    let x = reference.pose;
-    let de = reference.trig.euler_increment(&Vector3::new(delta[3], delta[4], delta[5]));
-    let pose =
-        Pose6::new(x[0] + delta[0], x[1] + delta[1], x[2] + delta[2], x[3] + de.x, x[4] + de.y, x[5] + de.z);
-    Ok((pose, delta, worst))
+    Ok(delta)
 }
 
 #[cfg(test)]

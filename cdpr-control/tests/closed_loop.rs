@@ -635,3 +635,64 @@ fn a_setpoint_infeasible_by_itself_holds_despite_the_backing_off() {
     assert!(held_for >= 1, "the feedback was on: the first failure is the feedback's");
     assert_eq!(rig.control.counters().infeasible, 1);
 }
+
+/// The estimator's step through the solver's factorisation (`R`, shared
+/// with the tension solver since the controller factors `W` once a cycle)
+/// is its step through the formed `W W^T`: the same pose to `f32`
+/// rounding, and the same refusals, over references across the workspace
+/// and displacements from a few millimetres to beyond the correction
+/// limit.
+#[test]
+fn the_estimate_through_the_solvers_factorisation_is_the_gram_ones() {
+    use cdpr_control::estimator::{EstimateError, Estimator, EstimatorSettings, Reference};
+    use tension_core::linalg::WrenchFactorization;
+    let control = control();
+    let mut state = 5u64;
+    let mut uniform = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    };
+    let (mut agreed, mut refused) = (0, 0);
+    for i in 0..400 {
+        let pose = [
+            0.4 * uniform(),
+            0.4 * uniform(),
+            1.9 + 0.3 * uniform(),
+            0.1 * uniform(),
+            0.1 * uniform(),
+            0.1 * uniform(),
+        ];
+        // Every fifth displacement is 0.2 m or 0.2 rad: beyond the limit.
+        let size = if i % 5 == 0 { 0.2 } else { 0.015 };
+        let truth: [f32; 6] = core::array::from_fn(|k| pose[k] + size * uniform());
+        let setpoint = cdpr_control::Setpoint {
+            seq: 1,
+            pose: Pose6::from(pose),
+            velocity: Pose6::zeros(),
+            acceleration: Pose6::zeros(),
+        };
+        let k = control.controller().kinematics(&setpoint).unwrap();
+        let fact = WrenchFactorization::new(&k.w).unwrap();
+        let lengths = lengths_at(&control, truth);
+        let settings = EstimatorSettings::default();
+        let shared =
+            Estimator::new(settings).about(Reference::of_setpoint(&setpoint.pose, &k, Some(&fact)), &lengths);
+        let gram = Estimator::new(settings).about(Reference::of_setpoint(&setpoint.pose, &k, None), &lengths);
+        match (shared, gram) {
+            (Ok(a), Ok(b)) => {
+                for j in 0..6 {
+                    assert!((a.pose[j] - b.pose[j]).abs() < 2e-6, "{i}: {j}: {} vs {}", a.pose[j], b.pose[j]);
+                }
+                assert!((a.residual - b.residual).abs() < 2e-6, "{i}: {} vs {}", a.residual, b.residual);
+                agreed += 1;
+            }
+            (Err(a), Err(b)) => {
+                assert_eq!(a, b, "{i}");
+                assert!(matches!(a, EstimateError::Correction | EstimateError::Residual), "{i}: {a:?}");
+                refused += 1;
+            }
+            (a, b) => panic!("{i}: {a:?} vs {b:?}"),
+        }
+    }
+    assert!(agreed >= 250 && refused >= 40, "{agreed} agreed, {refused} refused");
+}

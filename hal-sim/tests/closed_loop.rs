@@ -9,6 +9,7 @@ use std::path::PathBuf;
 
 use cdpr_control::feedback::{Gains, Scheme};
 use cdpr_control::protocol::{Reason, State};
+use cdpr_control::CABLES;
 use common::{scenario, states};
 use hal_sim::output::{figures, write, Figures};
 use hal_sim::scenario::HOLD_POSES;
@@ -141,7 +142,18 @@ fn tracking_a_loop_through_the_workspace() {
     assert!(f.estimate_error < 1.0e-3, "{}", f.estimate_error);
     assert!(f.residual < 0.5e-3, "{}", f.residual);
     assert!(f.tension_min > 2.0 && f.tension_max <= f64::from(t_max), "{f:?}");
-    assert!(f.commanded.0 >= t_min && f.commanded.1 <= t_max, "{:?}", f.commanded);
+    // The solver's tensions, commanded as they are: within the limits up to
+    // its slack tolerance, `64 eps` of the limits' offsets from the
+    // minimum-norm tensions (at most `t_max (1 + sqrt(M))`: the minimum-norm
+    // tensions are no longer than any feasible ones). A degenerate polygon's
+    // centroid, where the back-off leaves the feedback at the border, may
+    // lie that far outside (1.8e-3 N below 5 N in one run: 4e-6 of the scale).
+    let slack = tension_core::tolerance::slack(t_max * (1.0 + (CABLES as f32).sqrt()));
+    assert!(
+        f.commanded.0 >= t_min - slack && f.commanded.1 <= t_max + slack,
+        "{:?} ({slack} N)",
+        f.commanded
+    );
     let backed_off = o.telemetry.iter().filter(|t| t.feedback_scale < 100).count();
     println!("{}: feedback backed off in {backed_off} of {} telemetry samples", s.name, o.telemetry.len());
     assert!(backed_off > 0 && backed_off < o.telemetry.len() / 4, "{backed_off}");

@@ -39,6 +39,9 @@ pub struct WrenchFactorization<T: Real, const N: usize, const M: usize> {
     /// Null-space basis in columns `0..M - N` (only the first
     /// [`Self::factor`]'s `null_columns` of them are filled).
     z: SMatrix<T, M, M>,
+    /// How many columns of `z` the last [`Self::factor`] filled (`None`
+    /// until one succeeds, and after one fails).
+    null_filled: Option<usize>,
 }
 
 impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
@@ -67,6 +70,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             beta: SVector::zeros(),
             rdiag: SVector::zeros(),
             z: SMatrix::zeros(),
+            null_filled: None,
         }
     }
 
@@ -80,6 +84,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         keep: &[bool; M],
         null_columns: usize,
     ) -> Result<(), Error> {
+        self.null_filled = None;
         if N == 0 || N > M {
             return Err(Error::UnsupportedShape);
         }
@@ -181,7 +186,15 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
                 return Err(Error::Singular);
             }
         }
+        self.null_filled = Some(r);
         Ok(())
+    }
+
+    /// How many null-space columns the factorisation holds (what
+    /// [`Self::factor`] was asked for); `None` when it holds none (before
+    /// the first [`Self::factor`], or after one failed).
+    pub fn null_columns(&self) -> Option<usize> {
+        self.null_filled
     }
 
     /// `x <- Q x = H_1 (H_2 (... H_N x))`.
@@ -221,6 +234,50 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         }
         self.apply_q(&mut t);
         t
+    }
+
+    /// `x` with `W W^T x = g` from `W W^T = R^T R` (`R^T y = g`, then
+    /// `R x = y`): the normal equations of a least-squares problem in `W^T`
+    /// without forming the Gram matrix (Björck's semi-normal equations,
+    /// *Numerical Methods for Least Squares Problems*, 1996, Sect. 2.4.4).
+    /// `None` when a pivot of the Gram matrix's `L D L^T`, `d_j = R_jj^2`,
+    /// is not above `min_pivot` or not above `min_relative_pivot` times
+    /// the diagonal entry `(W W^T)_jj = sum_(k <= j) R_kj^2` (the test a
+    /// factorisation of `W W^T` itself would make), or when `x` is not
+    /// finite.
+    pub fn solve_gram(
+        &self,
+        g: &SVector<T, N>,
+        min_pivot: T,
+        min_relative_pivot: T,
+    ) -> Option<SVector<T, N>> {
+        let qr = self.qr.as_slice();
+        // Column j of `qr` holds R_kj (k < j) in its first j entries.
+        let r = |k: usize, j: usize| if k == j { self.rdiag[j] } else { qr[j * M + k] };
+        let mut y: SVector<T, N> = SVector::zeros();
+        for j in 0..N {
+            let d = self.rdiag[j] * self.rdiag[j];
+            let mut a = d;
+            let mut s = g[j];
+            for k in 0..j {
+                let rkj = r(k, j);
+                a += rkj * rkj;
+                s -= rkj * y[k];
+            }
+            if !(d > min_pivot && d > min_relative_pivot * a) {
+                return None;
+            }
+            y[j] = s / self.rdiag[j];
+        }
+        for jj in 0..N {
+            let j = N - 1 - jj;
+            let mut s = y[j];
+            for k in (j + 1)..N {
+                s -= r(j, k) * y[k];
+            }
+            y[j] = s / self.rdiag[j];
+        }
+        all_finite(y.iter().copied()).then_some(y)
     }
 
     /// Entry `(cable, k)` of the orthonormal null-space basis, `k < M - N`.

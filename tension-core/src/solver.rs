@@ -4,7 +4,8 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::{
-    methods::{self, Method, PreviousCycle, Workspace},
+    linalg::WrenchFactorization,
+    methods::{self, Method, PolygonWork, PreviousCycle, Workspace},
     Error, Real, Solution, TensionLimits,
 };
 
@@ -65,6 +66,25 @@ impl<T: Real, const M: usize> TensionSolver<T, M> {
         limits: &TensionLimits<T, M>,
     ) -> Result<Solution<T, M>, Error> {
         let result = methods::solve_with(self.method, scratch, w, f, limits, &self.previous);
+        if let Ok(solution) = &result {
+            self.previous.remember(solution);
+        }
+        result
+    }
+
+    /// [`Self::solve_with`] for a `W` the caller has factored already
+    /// ([`methods::solve_factored`]: `factorization` must be `w`'s, with
+    /// [`Method::null_columns`] null-space columns for this solver's
+    /// method), the polygon written to `work`.
+    pub fn solve_factored<const N: usize>(
+        &mut self,
+        factorization: &WrenchFactorization<T, N, M>,
+        work: &mut PolygonWork<T, N, M>,
+        w: &SMatrix<T, N, M>,
+        f: &SVector<T, N>,
+        limits: &TensionLimits<T, M>,
+    ) -> Result<Solution<T, M>, Error> {
+        let result = methods::solve_factored(self.method, factorization, work, w, f, limits, &self.previous);
         if let Ok(solution) = &result {
             self.previous.remember(solution);
         }

@@ -201,10 +201,33 @@ pub fn solve_with<T: Real, const N: usize, const M: usize>(
     if !method.supports(N, M) {
         return Err(Error::UnsupportedShape);
     }
-    let null_columns = if method.reads_null_space() { M - N } else { 0 };
     let Workspace { factorization, polygon: work } = scratch;
-    factorization.factor(w, &[true; M], null_columns)?;
-    let factorization = &*factorization;
+    factorization.factor(w, &[true; M], method.null_columns(N, M))?;
+    solve_factored(method, factorization, work, w, f, limits, previous)
+}
+
+/// [`solve_with`] for a `W` the caller has factored already
+/// ([`WrenchFactorization::factor`] with at least
+/// [`Method::null_columns`] null-space columns), so that what else it
+/// computes from `W` (a least-squares estimate through
+/// [`WrenchFactorization::solve_gram`]) shares the factorisation: the
+/// same result as [`solve_with`] when `factorization` is `w`'s.
+/// [`Error::UnsupportedShape`] when the method does not serve the shape
+/// or when `factorization` holds none or lacks the null-space columns the
+/// method reads (after a failed factorisation, the caller has its error).
+pub fn solve_factored<T: Real, const N: usize, const M: usize>(
+    method: Method,
+    factorization: &WrenchFactorization<T, N, M>,
+    work: &mut PolygonWork<T, N, M>,
+    w: &SMatrix<T, N, M>,
+    f: &SVector<T, N>,
+    limits: &TensionLimits<T, M>,
+    previous: &PreviousCycle<T, M>,
+) -> Result<Solution<T, M>, Error> {
+    let held = factorization.null_columns();
+    if !method.supports(N, M) || held.is_none_or(|c| c < method.null_columns(N, M)) {
+        return Err(Error::UnsupportedShape);
+    }
     let problem = Problem { w, f, limits, factorization };
     let result = method.dispatch(&problem, previous, work);
     // A warm start may make a method faster, never make it fail: a failure
@@ -252,6 +275,13 @@ macro_rules! methods {
             /// Whether the method serves `n` degrees of freedom and `m` cables.
             pub const fn supports(self, n: usize, m: usize) -> bool {
                 match self { $( Method::$variant => $module::supports(n, m), )* }
+            }
+
+            /// How many null-space columns the method reads from the
+            /// factorisation of an `n x m` `W`: all `m - n` for a method
+            /// that reads the null space, none for the others.
+            pub const fn null_columns(self, n: usize, m: usize) -> usize {
+                if self.reads_null_space() { m.saturating_sub(n) } else { 0 }
             }
 
             /// Whether the method starts from the previous cycle's solution.
