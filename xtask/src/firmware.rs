@@ -44,9 +44,11 @@ const DEMO: &str = "demo";
 /// issue 17, 16,468 before the kept polygon room and the kinematics built
 /// in place, 15,827 before the setpoint and the estimate were copied once
 /// instead of twice; 15,102 since the factorisation works on its columns as
-/// arrays and checks what it keeps), below the [`BUDGET`]. Other robots'
-/// steps are held to the budget.
-const REGRESSION_CEILING: u32 = 15_300;
+/// arrays and checks what it keeps; 14,570 since the walk skips its search
+/// among concurrent lines when no line ties and the estimator shares the
+/// solver's factorisation), below the [`BUDGET`]. Other robots' steps are
+/// held to the budget.
+const REGRESSION_CEILING: u32 = 14_800;
 
 /// The ceiling of `robot`'s worst step: [`REGRESSION_CEILING`] for the
 /// default robot, [`BUDGET`] for others.
@@ -620,8 +622,8 @@ mod tests {
         Report {
             instructions: true,
             cycles: 4000,
-            step: Spread { min: 10_898, median: 11_747, max: 15_090 },
-            solver: Spread { min: 6_023, median: 6_719, max: 10_069 },
+            step: Spread { min: 10_516, median: 11_406, max: 14_570 },
+            solver: Spread { min: 6_050, median: 6_709, max: 9_915 },
             overruns: 0,
             calibration_ticks: 160_000,
             calibration_expected: 160_000,
