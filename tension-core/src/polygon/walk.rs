@@ -309,7 +309,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // Neither reached before the nearest line nor within its
             // tolerance there: nothing to change.
             let reach = max(*alpha_min, T::zero()) * nd.abs() + u.tol[k];
-            if !(slack > apart) || slack > reach {
+            let relevant = slack > apart && slack <= reach;
+            if !relevant {
                 continue;
             }
             slacks[k] = slack;
@@ -339,7 +340,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
-            if !(slacks[k] - alpha * rates[k].abs() > self.unit.tol[k]) {
+            let clear = slacks[k] - alpha * rates[k].abs() > self.unit.tol[k];
+            if !clear {
                 return false;
             }
         }
