@@ -131,8 +131,13 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         // Per cable, the slack to the limit the edge approaches (`big`:
         // never reached) and the signed rate u_k . d at which it is
         // approached (zero: never reached).
+        // Whether `v` was taken from the step rather than computed as the
+        // crossing of its two lines.
+        let mut guessed = false;
         let mut slacks = [big; M];
         let mut rates = [T::zero(); M];
+        // `u_k . d` of the cables within the parallel threshold of the edge.
+        let mut shallow_rates = [T::zero(); M];
         for _ in 0..=2 * M {
             let hc = h / 2;
             let o = self.unit_normal(h);
@@ -173,6 +178,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 } else {
                     // Within the parallel threshold: looked at below.
                     shallow |= 1 << k;
+                    shallow_rates[k] = nd;
                     (big, T::zero())
                 };
                 slacks[k] = slack;
@@ -188,7 +194,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                     }
                 }
             }
-            if !skip_margin && margin > best_margin {
+            // A vertex whose lines cross too shallowly to be computed (taken
+            // from the step along the edge) is no warm start: the next
+            // cycle could not find it again.
+            if !skip_margin && !guessed && margin > best_margin {
                 best_margin = margin;
                 best_lines = (pc_line(prev), h as u8);
             }
@@ -203,7 +212,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 reached_shallow = self.reach_shallow(
                     shallow,
                     &v,
-                    &d,
+                    &shallow_rates,
                     (&mut slacks, &mut rates),
                     (&mut alpha_min, &mut alpha_second, &mut nearest),
                 );
@@ -263,8 +272,16 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 return None;
             }
             visited |= 1 << g;
-            let w_guess = v + d * alpha;
-            let (w, error) = self.intersect(h, g).unwrap_or((w_guess, self.tol));
+            let (w, error) = match self.intersect(h, g) {
+                Some(crossing) => {
+                    guessed = false;
+                    crossing
+                }
+                None => {
+                    guessed = true;
+                    (v + d * alpha, self.tol)
+                }
+            };
             vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
             prev = Some(h);
             h = g;
@@ -274,7 +291,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     }
 
     /// The cables in `shallow` (a bit per cable: lines within the parallel
-    /// threshold of the edge along unit `d` from `v`) whose line the edge
+    /// threshold of the edge from `v`, their `u_k . d` in `shallow_rates`)
+    /// whose line the edge
     /// approaches from more than four slack tolerances away: their slack
     /// and rate written, and the smallest, second smallest and nearest
     /// steps updated. Returns those cables (a bit per cable).
@@ -283,7 +301,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         &self,
         shallow: u32,
         v: &Vector2<T>,
-        d: &Vector2<T>,
+        shallow_rates: &[T; M],
         (slacks, rates): (&mut [T; M], &mut [T; M]),
         (alpha_min, alpha_second, nearest): (&mut T, &mut T, &mut usize),
     ) -> u32 {
@@ -296,8 +314,14 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
+            let nd = shallow_rates[k];
+            // Relevant (below) needs `4 tol_k < slack <= alpha |nd| + tol_k`:
+            // never for a line as parallel as a twin cable's.
+            let alpha = max(*alpha_min, T::zero());
+            if alpha * nd.abs() <= T::lit(3.0) * u.tol[k] {
+                continue;
+            }
             let nv = u.ux[k] * v.x + u.uy[k] * v.y;
-            let nd = u.ux[k] * d.x + u.uy[k] * d.y;
             let apart = T::lit(4.0) * u.tol[k];
             let slack = if nd > T::zero() {
                 u.hi[k] - nv
@@ -308,7 +332,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             };
             // Neither reached before the nearest line nor within its
             // tolerance there: nothing to change.
-            let reach = max(*alpha_min, T::zero()) * nd.abs() + u.tol[k];
+            let reach = alpha * nd.abs() + u.tol[k];
             let relevant = slack > apart && slack <= reach;
             if !relevant {
                 continue;
