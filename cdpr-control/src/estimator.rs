@@ -15,19 +15,23 @@
 //! delta = -(W_r W_r^T)^-1 W_r b,      residual r = b + W_r^T delta
 //! ```
 //!
-//! (`W_r W_r^T` by Cholesky; a failed factorisation is ill-conditioned).
-//! The estimate is `x_r` moved by `delta` (position added; the rotation
+//! (through `R` of the tension solver's `W_r^T = Q R` when the controller
+//! shares it, `W_r W_r^T = R^T R`; otherwise `W_r W_r^T` formed and
+//! factored as `L D L^T`; either way a pivot below `1e-6` of its diagonal
+//! entry is ill-conditioned). The estimate is `x_r` moved by `delta` (position added; the rotation
 //! vector mapped to Euler-angle increments through the inverse of the
 //! Euler-rate matrix at `x_r`).
 //!
 //! * While a setpoint is solved, the reference is the setpoint: the
 //!   controller has just computed its lengths and `W` for the tension
-//!   distribution, so the step costs one 6 x 6 solve and no kinematics
-//!   ([`Estimator::about`] with [`Reference::of_setpoint`]). The
+//!   distribution and factored `W` for the solver
+//!   (`crate::controller::Controller::prepare`), so the step costs two
+//!   6 x 6 triangular solves and no kinematics ([`Estimator::about`] with
+//!   [`Reference::of_setpoint`]). The
 //!   linearisation error is second order: about `|delta|^2 / L`, 0.2 mm
 //!   at the 20 mm tracking limit with 2 m cables, 2 um at 2 mm.
 //! * Otherwise (no setpoint, or none solved) the reference is the
-//!   previous estimate ([`Reference::at`] computes its kinematics): plain
+//!   previous estimate ([`OwnedReference::at`] computes its kinematics): plain
 //!   Gauss-Newton, one iteration a cycle, converging quadratically while
 //!   the platform rests.
 //!
@@ -179,7 +183,7 @@ impl<'a> Reference<'a> {
     }
 }
 
-/// Kinematics of a pose owned by the caller (for [`Reference::at`]).
+/// Kinematics of a pose owned by the caller (for [`OwnedReference::at`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OwnedReference {
     pose: Pose6,
@@ -382,10 +386,10 @@ const fn at(r: usize, c: usize) -> usize {
 }
 
 /// The step: the pose, the correction and the worst residual. The
-/// normal equations `A delta = -g` (`A = W W^T`, `g = W b`) are formed
-/// cable by cable (`A` symmetric: its lower triangle, 21 entries) and
-/// solved by `L D L^T` without square roots: about 330 multiply-adds, a
-/// fixed count.
+/// normal equations `A delta = -g` (`A = W W^T`, `g = W b`) are solved
+/// through the shared factorisation's `R` (`A = R^T R`: about 140
+/// multiply-adds with `g` and the residual) or, without one, by
+/// [`normal_equations`] (about 330): a fixed count either way.
 // Index loops the compiler unrolls; negated comparisons that also catch NaN.
 #[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 fn step(
