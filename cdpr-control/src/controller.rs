@@ -192,6 +192,9 @@ pub struct FrictionCompensation {
 pub struct Prepared<'k, const M: usize = CABLES> {
     kinematics: &'k SetpointKinematics<M>,
     factored: Result<(), Error>,
+    /// The controller's factorisation count when this one was made: the
+    /// workspace still holds it while the count is the same.
+    generation: u32,
     /// The factorisation's time, counted as the solver's.
     ticks: u32,
 }
@@ -211,6 +214,9 @@ pub struct Controller<const M: usize = CABLES> {
     solver: TensionSolver<f32, M>,
     /// The solver's factorisation and polygon, refilled every cycle.
     scratch: Workspace<f32, DOF, M>,
+    /// Counts the factorisations written to `scratch` ([`Self::prepare`],
+    /// [`Self::solve`]): a [`Prepared`] of another count is no longer there.
+    generation: u32,
     /// The largest anchor coordinate's magnitude (the anchors' part of the
     /// robot's size for the degenerate-cable floor, which is constant).
     anchor_extent: f32,
@@ -235,6 +241,7 @@ impl<const M: usize> Controller<M> {
             robot,
             solver: TensionSolver::new(method),
             scratch: Workspace::new(),
+            generation: 0,
             anchor_extent,
             friction: None,
         })
@@ -321,6 +328,7 @@ impl<const M: usize> Controller<M> {
 
     /// The tension distribution (warm-started from the previous success).
     pub fn solve(&mut self, w: &WrenchMatrix<M>, f: &Wrench) -> Result<Solution<f32, M>, Error> {
+        self.generation = self.generation.wrapping_add(1);
         self.solver.solve_with(&mut self.scratch, w, f, self.robot.limits())
     }
 
@@ -334,6 +342,7 @@ impl<const M: usize> Controller<M> {
         clock: &C,
     ) -> Prepared<'k, M> {
         let t0 = clock.ticks();
+        self.generation = self.generation.wrapping_add(1);
         let method = self.solver.method();
         let factored = if method.supports(DOF, M) {
             let columns = method.null_columns(DOF, M);
@@ -341,12 +350,14 @@ impl<const M: usize> Controller<M> {
         } else {
             Err(Error::UnsupportedShape)
         };
-        Prepared { kinematics, factored, ticks: clock.since(t0) }
+        Prepared { kinematics, factored, generation: self.generation, ticks: clock.since(t0) }
     }
 
-    /// The factorisation [`Self::prepare`] made, if it succeeded.
+    /// The factorisation [`Self::prepare`] made, if it succeeded and is
+    /// still the one held (no other `prepare` or [`Self::solve`] since).
     pub fn factorization(&self, prepared: &Prepared<'_, M>) -> Option<&WrenchFactorization<f32, DOF, M>> {
-        prepared.factored.is_ok().then_some(&self.scratch.factorization)
+        (prepared.factored.is_ok() && prepared.generation == self.generation)
+            .then_some(&self.scratch.factorization)
     }
 
     /// Motor torques for a tension solution (no friction compensation).
@@ -492,6 +503,8 @@ impl<const M: usize> Controller<M> {
         let kinematics = prepared.kinematics;
         let f = kinematics.f + feedback;
         let solution = match prepared.factored {
+            // Another factorisation since `prepare`: factored anew.
+            Ok(()) if prepared.generation != self.generation => self.solve(&kinematics.w, &f),
             Ok(()) => {
                 let Workspace { factorization, polygon } = &mut self.scratch;
                 self.solver.solve_factored(factorization, polygon, &kinematics.w, &f, self.robot.limits())

@@ -696,3 +696,44 @@ fn the_estimate_through_the_solvers_factorisation_is_the_gram_ones() {
     }
     assert!(agreed >= 250 && refused >= 40, "{agreed} agreed, {refused} refused");
 }
+
+/// A factorisation made by `prepare` and overwritten before `finish` (by
+/// another `prepare` or a `solve`) is not solved with: `finish` factors
+/// its own kinematics anew, and `factorization` no longer offers it. The
+/// closed form (no warm start) gives the same command as a fresh
+/// controller; solved with the other pose's factorisation it would not.
+#[test]
+fn a_prepared_factorisation_overwritten_before_finish_is_made_anew() {
+    use cdpr_control::controller::{Controller, PhaseTicks, Wrench};
+    let at = |pose: [f32; 6]| cdpr_control::Setpoint {
+        seq: 1,
+        pose: Pose6::from(pose),
+        velocity: Pose6::zeros(),
+        acceleration: Pose6::zeros(),
+    };
+    let (s1, s2) = (at(POSE), at([-0.3, 0.25, 2.1, -0.05, 0.04, -0.1]));
+    let mut fresh = Controller::new(common::suspended8().clone(), Method::ClosedForm).unwrap();
+    let k1 = fresh.kinematics(&s1).unwrap();
+    let k2 = fresh.kinematics(&s2).unwrap();
+    let p = fresh.prepare(&k1, &NoClock);
+    let expected =
+        fresh.finish(&s1, p, &Wrench::zeros(), None, &NoClock, &mut PhaseTicks::default()).unwrap();
+    let mut checked = 0;
+    for overwrite_by_solve in [true, false] {
+        let mut c = Controller::new(common::suspended8().clone(), Method::ClosedForm).unwrap();
+        let p = c.prepare(&k1, &NoClock);
+        assert!(c.factorization(&p).is_some());
+        if overwrite_by_solve {
+            c.solve(&k2.w, &k2.f).unwrap();
+        } else {
+            let _other = c.prepare(&k2, &NoClock);
+        }
+        assert!(c.factorization(&p).is_none());
+        let got = c.finish(&s1, p, &Wrench::zeros(), None, &NoClock, &mut PhaseTicks::default()).unwrap();
+        assert_eq!(got, expected);
+        checked += 1;
+    }
+    assert_eq!(checked, 2);
+    // The poses differ enough that the other factorisation would matter.
+    assert!((k1.w - k2.w).amax() > 0.05);
+}
