@@ -199,13 +199,6 @@ pub struct Prepared<'k, const M: usize = CABLES> {
     ticks: u32,
 }
 
-impl<const M: usize> Prepared<'_, M> {
-    /// The kinematics prepared.
-    pub fn kinematics(&self) -> &SetpointKinematics<M> {
-        self.kinematics
-    }
-}
-
 /// The controller: the robot (6 DOF, `M` cables, by default the firmware's
 /// 8) and a warm-started tension solver. What reaches the winches is the
 /// [`crate::supervisor`]'s decision.

@@ -128,12 +128,12 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let mut prev = None;
         let big = T::max_value()?;
         let par = self.parallel;
-        // Per cable, the slack to the limit the edge approaches (`big`:
-        // never reached) and the signed rate u_k . d at which it is
-        // approached (zero: never reached).
         // Whether `v` was taken from the step rather than computed as the
         // crossing of its two lines.
         let mut guessed = false;
+        // Per cable, the slack to the limit the edge approaches (`big`:
+        // never reached) and the signed rate u_k . d at which it is
+        // approached (zero: never reached).
         let mut slacks = [big; M];
         let mut rates = [T::zero(); M];
         // `u_k . d` of the cables within the parallel threshold of the edge.
