@@ -1029,6 +1029,7 @@ fn barycenter_phases(clock: &Tim2Counter) {
     let limits = *controller.robot().limits();
     let (mut fact_t, mut poly_t, mut walk_t) = (Running::default(), Running::default(), Running::default());
     let mut pair = None;
+    let mut vertices = VertexList::new();
     // Interrupts off: the timings must not include the monotonic's tick.
     cortex_m::interrupt::free(|_| {
         for k in 0..CYCLES as u32 {
@@ -1041,7 +1042,8 @@ fn barycenter_phases(clock: &Tim2Counter) {
             let mut poly = TensionPolygon::zeroed();
             let Ok(()) = poly.set(&fact, &f, &limits) else { continue };
             let t2 = clock.ticks();
-            let mut vertices = VertexList::new();
+            // Kept from cycle to cycle, as the solver's workspace keeps it:
+            // the last polygon's lines are the walk's hints.
             let found = poly.polygon.walk_into(pair, &mut vertices);
             let t3 = clock.ticks();
             if let Ok(found) = found {

@@ -13,6 +13,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         vertices: &VertexList<T, M>,
         robust_pair: Option<ActivePair>,
         held: bool,
+        hinted_steps: usize,
     ) -> Result<PolygonSummary<T>, Error> {
         let (centroid, area) = centroid(vertices, self.tol, self.inv_scale);
         let robust_pair = robust_pair.unwrap_or_else(|| {
@@ -33,7 +34,14 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         if !all_finite([centroid.x, centroid.y, area]) {
             return Err(Error::NonFinite);
         }
-        Ok(PolygonSummary { centroid, vertices: vertices.len(), area, robust_pair, warm_start_held: held })
+        Ok(PolygonSummary {
+            centroid,
+            vertices: vertices.len(),
+            area,
+            robust_pair,
+            warm_start_held: held,
+            hinted_steps,
+        })
     }
 }
 

@@ -143,6 +143,9 @@ pub struct PolygonCentroid<T: Real, const M: usize> {
     pub robust_pair: ActivePair,
     /// `true` when the walk started from the given warm start.
     pub warm_start_held: bool,
+    /// How many of the walk's steps took the line the previous polygon
+    /// gave (see [`FeasiblePolygon::walk_into`]); the rest were full steps.
+    pub hinted_steps: usize,
 }
 
 /// [`PolygonCentroid`] without the vertices, which stay in the caller's
@@ -159,6 +162,9 @@ pub struct PolygonSummary<T: Real> {
     pub robust_pair: ActivePair,
     /// `true` when the walk started from the given warm start.
     pub warm_start_held: bool,
+    /// How many of the walk's steps took the line the previous polygon
+    /// gave; the rest were full steps.
+    pub hinted_steps: usize,
 }
 
 impl<T: Real, const M: usize> PolygonCentroid<T, M> {
@@ -169,6 +175,7 @@ impl<T: Real, const M: usize> PolygonCentroid<T, M> {
             area: s.area,
             robust_pair: s.robust_pair,
             warm_start_held: s.warm_start_held,
+            hinted_steps: s.hinted_steps,
         }
     }
 }
@@ -197,6 +204,10 @@ pub struct FeasiblePolygon<T: Real, const M: usize> {
     /// exceeds the smallest one by more than this is not reached within its
     /// tolerance there (the walk's test for concurrent lines can skip it).
     tie_gap: T,
+    /// Four times the largest `tol_k`: a line farther than this from a
+    /// step's point is not reached there within its tolerance, with room
+    /// for the rounding of the walk's steps (its hinted steps' test).
+    clear_gap: T,
 }
 
 /// Cable `k`'s two half-planes divided by `|n_k|`: `lo_k <= u_k . lambda
@@ -245,6 +256,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             ptol: z,
             unit: UnitLines { ux: z, uy: z, lo: z, hi: z, tol: z },
             tie_gap: T::zero(),
+            clear_gap: T::zero(),
         }
     }
 
@@ -318,6 +330,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         self.inv_scale = if scale > T::zero() { T::one() / scale } else { T::one() };
         self.parallel = parallel;
         self.tie_gap = T::lit(2.0) * tol_max / parallel;
+        self.clear_gap = T::lit(4.0) * tol_max;
         Ok(())
     }
 
@@ -380,8 +393,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 
     /// Intersection of the lines of half-planes `h1` and `h2` (Cramer's rule
     /// on their Eq. 6) and a bound on its error, `tol (|a_1| + |a_2|) / |det|`;
-    /// `None` when (nearly) parallel.
-    #[inline]
+    /// `None` when (nearly) parallel. (Always inlined: out of line, as the
+    /// walk's hinted and full steps both call it, it cost the board's step
+    /// about 300 instructions.)
+    #[inline(always)]
     fn intersect(&self, h1: usize, h2: usize) -> Option<(Vector2<T>, T)> {
         let a1 = self.normal(h1);
         let a2 = self.normal(h2);

@@ -41,8 +41,13 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             Some(v) => v,
             None => self.first_vertex().ok_or(Error::Infeasible)?,
         };
-        match self.walk_from(start, vertices) {
-            Some(robust_pair) => self.finish(vertices, Some(robust_pair), held),
+        // The caller's list still holds its last polygon (a control loop's:
+        // the previous cycle's): each line's successor there is tried first,
+        // when the warm start from it held (after a lost one the polygon has
+        // changed too much for its lines to be worth a try).
+        let hints = if held { successors(vertices) } else { [[NO_LINE; 2]; M] };
+        match self.walk_from(start, vertices, &hints) {
+            Some((robust_pair, hinted)) => self.finish(vertices, Some(robust_pair), held, hinted),
             // An anomaly (an edge met twice, on a sliver): every vertex by
             // the pairs of the lines the clipping does not prove empty (the
             // others hold none).
@@ -59,7 +64,19 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// most one division for the limit the edge approaches (Eqs. 16-18), then
     /// the smallest step (Eq. 19) and, among lines reached at the same point,
     /// the edge-supporting one (Sect. 2.3).
-    fn walk_from(&self, start: Vertex<T>, vertices: &mut VertexList<T, M>) -> Option<ActivePair> {
+    ///
+    /// A step first tries the line `hints` gives for the edge (its successor
+    /// in the previous cycle's polygon): it is taken when
+    /// [`Self::hinted_step`] proves that the full step would take it, by one
+    /// dot product per cable at the new vertex instead of two, a division
+    /// and the search for the smallest step; the vertices are the same, bit
+    /// for bit.
+    fn walk_from(
+        &self,
+        start: Vertex<T>,
+        vertices: &mut VertexList<T, M>,
+        hints: &[[u8; 2]; M],
+    ) -> Option<(ActivePair, usize)> {
         vertices.clear();
         vertices.push(start).ok()?;
         // Every test below is on the unit-normal lines (`UnitLines`): slacks
@@ -118,7 +135,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         }
         let mut best_lines = start.lines;
         let Some(first_edge) = edge else {
-            return Some(pair_of(best_lines)); // a single point
+            return Some((pair_of(best_lines), 0)); // a single point
         };
         let mut visited: u64 = 1 << first_edge;
         let mut h = first_edge;
@@ -138,10 +155,55 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let mut rates = [T::zero(); M];
         // `u_k . d` of the cables within the parallel threshold of the edge.
         let mut shallow_rates = [T::zero(); M];
+        // Whether `v`'s margin is still to be compared (it was reached by a
+        // full step, whose pass at `v` compares it; a hinted step skips that
+        // pass). The first vertex's is known.
+        let mut margin_pending = false;
+        let mut hinted_steps = 0;
+        let mut hints_trusted = true;
         for _ in 0..=2 * M {
             let hc = h / 2;
             let o = self.unit_normal(h);
             let d = Vector2::new(-o.y, o.x);
+            let hinted = hints[hc][h % 2] as usize;
+            let tried = if hints_trusted && hinted < 2 * M {
+                let step = self.hinted_step(h, hinted, &v, &d, big);
+                // One wrong hint and the rest of the walk takes full steps:
+                // a polygon whose lines changed costs at most one test more.
+                hints_trusted = step.is_some();
+                step
+            } else {
+                None
+            };
+            if let Some((w, error, w_margin)) = tried {
+                // What the full step below would do, in the same order.
+                if margin_pending && !guessed {
+                    let margin = self.margin_at(&v, hc, prev.map_or(hc, |p| p / 2), big);
+                    if margin > best_margin {
+                        best_margin = margin;
+                        best_lines = (pc_line(prev), h as u8);
+                    }
+                }
+                hinted_steps += 1;
+                if hinted == first_edge {
+                    return Some((pair_of(best_lines), hinted_steps));
+                }
+                if visited & (1 << hinted) != 0 {
+                    return None;
+                }
+                visited |= 1 << hinted;
+                vertices.push(Vertex { point: w, lines: (h as u8, hinted as u8), error }).ok()?;
+                if w_margin > best_margin {
+                    best_margin = w_margin;
+                    best_lines = (h as u8, hinted as u8);
+                }
+                margin_pending = false;
+                guessed = false;
+                prev = Some(h);
+                h = hinted;
+                v = w;
+                continue;
+            }
             // The cables whose lines define `v` (the edge's and the previous
             // edge's), left out of its margin; none at the first vertex,
             // whose margin is known.
@@ -266,7 +328,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
             let g = next?;
             if g == first_edge {
-                return Some(pair_of(best_lines));
+                return Some((pair_of(best_lines), hinted_steps));
             }
             if visited & (1 << g) != 0 {
                 return None;
@@ -283,11 +345,103 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 }
             };
             vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
+            margin_pending = true;
             prev = Some(h);
             h = g;
             v = w;
         }
         None
+    }
+
+    /// The step along edge `h` from `v` (direction `d`) to line `g`, when
+    /// the full step of [`Self::walk_from`] would take it: `g`'s cable is
+    /// approached on `g`'s side beyond the parallel threshold, the two lines'
+    /// crossing is computable, and at the crossing the line each other
+    /// cable's rate approaches is more than `clear_gap` away (widened by the
+    /// distance between the crossing and the point the step along `d`
+    /// reaches). Then no other line is reached before `g`'s or within its
+    /// tolerance at the step's point, approached beyond the parallel
+    /// threshold or within it (the full step's test for such a line: its
+    /// slack at `v` above `alpha |u_k . d| + tol_k`), whichever of its two
+    /// rules (the smallest step alone, or the search among the lines
+    /// reached) the full step applies: its next line is `g` and its vertex
+    /// this crossing. Returns the crossing, its error bound and its margin
+    /// (the full step's margin of it, bit for bit); `None` when any of that
+    /// fails (or `g` is no line: no hint).
+    #[inline]
+    fn hinted_step(
+        &self,
+        h: usize,
+        g: usize,
+        v: &Vector2<T>,
+        d: &Vector2<T>,
+        big: T,
+    ) -> Option<(Vector2<T>, T, T)> {
+        let u = &self.unit;
+        let (hc, gc) = (h / 2, g / 2);
+        if g >= 2 * M || gc == hc {
+            return None;
+        }
+        let nd = u.ux[gc] * d.x + u.uy[gc] * d.y;
+        let nv = u.ux[gc] * v.x + u.uy[gc] * v.y;
+        // Approached on `g`'s side beyond the parallel threshold (false for
+        // a NaN), or the full step would not take `g`.
+        let upper = g % 2 == 1;
+        let toward = if upper { nd > self.parallel } else { nd < -self.parallel };
+        if !toward {
+            return None;
+        }
+        let slack = if upper { u.hi[gc] - nv } else { nv - u.lo[gc] };
+        let alpha = max(slack / nd.abs(), T::zero());
+        let (w, error) = self.intersect(h, g)?;
+        let reached = v + d * alpha;
+        let need = self.clear_gap + (w.x - reached.x).abs() + (w.y - reached.y).abs();
+        let margin = self.margin_at(&w, hc, gc, big);
+        // Both lines of every other cable far (the usual case), or failing
+        // that (a twin of the edge's cable, whose lines run beside the
+        // edge), the approached one of each. A line more than `clear_gap`
+        // beyond `w` is a line the hint missed (a line the edge leaves lies
+        // beyond `w` by no more than it lay beyond `v`, within tolerance):
+        // no second pass for it.
+        let clear =
+            margin > need || (margin > -self.clear_gap && self.approached_clear(&w, d, (hc, gc), need));
+        clear.then_some((w, error, margin))
+    }
+
+    /// Whether at `w` every cable but `skip`'s has the line that direction
+    /// `d` approaches more than `need` away.
+    fn approached_clear(&self, w: &Vector2<T>, d: &Vector2<T>, skip: (usize, usize), need: T) -> bool {
+        let u = &self.unit;
+        for k in 0..M {
+            if k == skip.0 || k == skip.1 {
+                continue;
+            }
+            let nv = u.ux[k] * w.x + u.uy[k] * w.y;
+            let nd = u.ux[k] * d.x + u.uy[k] * d.y;
+            let slack = if nd > T::zero() { u.hi[k] - nv } else { nv - u.lo[k] };
+            let far = slack > need;
+            if !far {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The smallest slack at `p` to the lines of the cables other than `a`
+    /// and `b` (`big` when there is none), computed as the full step of
+    /// [`Self::walk_from`] computes its margin.
+    #[inline]
+    fn margin_at(&self, p: &Vector2<T>, a: usize, b: usize, big: T) -> T {
+        let u = &self.unit;
+        let mut margin = big;
+        for k in 0..M {
+            let nv = u.ux[k] * p.x + u.uy[k] * p.y;
+            let (s_lo, s_hi) = (nv - u.lo[k], u.hi[k] - nv);
+            if !(k == a || k == b) {
+                margin = min(margin, min(s_lo, s_hi));
+            }
+        }
+        margin
     }
 
     /// The cables in `shallow` (a bit per cable: lines within the parallel
@@ -378,4 +532,38 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 #[inline]
 fn pc_line(prev: Option<usize>) -> u8 {
     prev.map_or(0, |p| p as u8)
+}
+
+/// No successor known (a hint of none).
+const NO_LINE: u8 = u8::MAX;
+
+/// Each line's successor along the boundary of the polygon in `vertices`
+/// (as the walk leaves them: vertex `i > 0` on lines `(edge in, edge out)`,
+/// the first on the closing edge and the first edge), `[cable][side]`;
+/// [`NO_LINE`] where none. Only hints: [`FeasiblePolygon::hinted_step`]
+/// checks each, so any list (the brute force's, another robot's) is safe.
+fn successors<T: Real, const M: usize>(vertices: &VertexList<T, M>) -> [[u8; 2]; M] {
+    let mut next = [[NO_LINE; 2]; M];
+    let n = vertices.len();
+    if n < 2 {
+        return next;
+    }
+    let mut put = |from: u8, to: u8| {
+        let h = from as usize;
+        if h < 2 * M {
+            next[h / 2][h % 2] = to;
+        }
+    };
+    for i in 1..n {
+        let (from, to) = vertices.get(i).lines;
+        put(from, to);
+    }
+    let last = vertices.get(n - 1).lines.1;
+    let (s0, s1) = vertices.get(0).lines;
+    if last == s0 {
+        put(last, s1);
+    } else if last == s1 {
+        put(last, s0);
+    }
+    next
 }

@@ -1,0 +1,221 @@
+//! The walk's hinted steps (`FeasiblePolygon::walk_into` tries, at each
+//! edge, the line that followed it in the polygon its list still holds, and
+//! takes it only when that is provably what the full step of Lamaury &
+//! Gouttefarde 2013, Eqs. 16-21, would choose) change nothing: the same
+//! vertices, lines, error bounds, centroid and warm-start pair, bit for bit,
+//! as the walk with an empty list (no hint: every step a full one), along
+//! the shipped robots' paths, across jumps, at polygons shifted towards the
+//! feasibility border, and with hints from an unrelated polygon. Each check
+//! counts the steps that took a hint, so that the comparison is known to
+//! have reached them.
+
+use cdpr_integration_tests::{
+    frame_poses, persisted_config, shipped_robot, smooth_path, IPANEMA1_PATH, SUSPENDED8_PATH,
+};
+use nalgebra::{SVector, Vector2};
+use proptest::prelude::*;
+use tension_core::{
+    linalg::WrenchFactorization,
+    polygon::{ActivePair, FeasiblePolygon, PolygonSummary, VertexList},
+    tension_polygon::TensionPolygon,
+    Error, Real, Robot,
+};
+
+const M: usize = 8;
+
+/// Steps compared: all of them, and those that took a hint.
+#[derive(Debug, Default, Clone, Copy)]
+struct Counts {
+    walks: usize,
+    steps: usize,
+    hinted: usize,
+}
+
+/// Walks `polygon` from `warm` with the hints `kept` holds (its last
+/// polygon; it keeps this one) and with none, and requires the same
+/// outcome bit for bit. Returns the hinted walk's outcome.
+fn compare<T: Real + std::fmt::Debug>(
+    polygon: &FeasiblePolygon<T, M>,
+    warm: Option<ActivePair>,
+    kept: &mut VertexList<T, M>,
+    counts: &mut Counts,
+    context: &dyn Fn() -> String,
+) -> Result<PolygonSummary<T>, Error> {
+    let mut fresh = VertexList::new();
+    let plain = polygon.walk_into(warm, &mut fresh);
+    let hinted = polygon.walk_into(warm, kept);
+    match (&plain, &hinted) {
+        (Ok(a), Ok(b)) => {
+            assert_eq!(a.hinted_steps, 0, "no hint in an empty list: {}", context());
+            let same = PolygonSummary { hinted_steps: 0, ..*b };
+            assert_eq!(*a, same, "{}", context());
+            assert_eq!(fresh.len(), kept.len(), "{}", context());
+            for (x, y) in fresh.iter().zip(kept.iter()) {
+                // Bit for bit: `Debug` prints the shortest representation
+                // that reads back to the same bits, and the sign of a zero.
+                assert_eq!(x.lines, y.lines, "{}", context());
+                for (p, q) in [(x.point.x, y.point.x), (x.point.y, y.point.y), (x.error, y.error)] {
+                    assert_eq!(format!("{p:?}"), format!("{q:?}"), "{}", context());
+                }
+            }
+            counts.walks += 1;
+            // A walk's steps: one per vertex after the first, and the
+            // closing one (none for a single point).
+            counts.steps += b.vertices.max(1);
+            counts.hinted += b.hinted_steps;
+            assert!(b.hinted_steps <= b.vertices.max(1), "{}", context());
+        }
+        (Err(a), Err(b)) => assert_eq!(a, b, "{}", context()),
+        _ => panic!("{plain:?} against {hinted:?}: {}", context()),
+    }
+    hinted
+}
+
+/// Along `poses` (each warm-started from the last outcome, as a control
+/// loop does), the hinted walk against the plain one.
+fn along<T: Real + std::fmt::Debug>(robot: &Robot<T, 6, M>, poses: &[SVector<T, 6>]) -> Counts {
+    let mut counts = Counts::default();
+    let mut kept = VertexList::new();
+    let mut warm = None;
+    let mut fact = WrenchFactorization::<T, 6, M>::zeroed();
+    let mut polygon = TensionPolygon::<T, 6, M>::zeroed();
+    for (i, pose) in poses.iter().enumerate() {
+        let (Ok(w), Ok(f)) =
+            (robot.wrench_matrix(pose), robot.required_wrench(pose, &SVector::zeros(), None))
+        else {
+            continue;
+        };
+        if fact.factor(&w, &[true; M], 2).is_err() || polygon.set(&fact, &f, robot.limits()).is_err() {
+            continue;
+        }
+        let context = || format!("pose {i}: {pose:?}");
+        if let Ok(found) = compare(&polygon.polygon, warm, &mut kept, &mut counts, &context) {
+            warm = Some(found.robust_pair);
+        }
+    }
+    counts
+}
+
+fn shipped<T: Real + std::fmt::Debug>(
+    name: &str,
+    path: [[f64; 3]; 3],
+    frame: ([f64; 3], [f64; 4]),
+) -> [Counts; 2] {
+    let robot: Robot<T, 6, M> = shipped_robot(name);
+    let smooth = along(&robot, &smooth_path::<T>(path[0], path[1], path[2], 2_000));
+    let jumps: Vec<SVector<T, 6>> =
+        frame_poses(frame.0, frame.1, 2_000, 7).iter().map(|p| p.map(|x| T::lit(x))).collect();
+    let jumps = along(&robot, &jumps);
+    [smooth, jumps]
+}
+
+/// Along the benchmarks' smooth paths most steps take the hint (the
+/// polygon's lines change only where a vertex appears or goes); across
+/// random poses of the frame (a different polygon each time, most of them
+/// empty) a few still do. Every outcome is the plain walk's.
+#[test]
+fn hinted_walk_is_the_plain_walk_on_the_shipped_robots() {
+    let suspended = ([0.0, 0.0, 1.6], [1.5, 1.2, 1.0, 0.3]);
+    let ipanema = ([0.0, 0.0, 1.0], [0.5, 0.4, 0.3, 0.1]);
+    let runs = [
+        ("suspended-8 f64", shipped::<f64>("suspended-8", SUSPENDED8_PATH, suspended)),
+        ("suspended-8 f32", shipped::<f32>("suspended-8", SUSPENDED8_PATH, suspended)),
+        ("ipanema1 f64", shipped::<f64>("ipanema1", IPANEMA1_PATH, ipanema)),
+        ("ipanema1 f32", shipped::<f32>("ipanema1", IPANEMA1_PATH, ipanema)),
+    ];
+    for (name, [smooth, jumps]) in runs {
+        println!("{name}: smooth {smooth:?}, jumps {jumps:?}");
+        assert!(smooth.walks >= 1_900, "{name}: only {} walks compared on the path", smooth.walks);
+        assert!(
+            smooth.hinted * 10 >= smooth.steps * 9,
+            "{name}: {} of {} steps hinted on the smooth path",
+            smooth.hinted,
+            smooth.steps
+        );
+        assert!(jumps.walks >= 100 && jumps.hinted > 0, "{name}: jumps {jumps:?}");
+    }
+}
+
+/// Eight cables' rows (one in four nearly parallel to the one before it,
+/// one in four its twin, as on IPAnema 1), limits around the origin and a
+/// direction in which the limits' offsets move.
+type Case = ([[f64; 2]; M], [f64; M], [f64; M], [f64; M]);
+
+fn case() -> impl Strategy<Value = Case> {
+    (
+        prop::array::uniform8((0.0..std::f64::consts::TAU, 0.05..3.0f64, 0u8..4, 2.0..9.0f64)),
+        prop::array::uniform8((1.0..20.0f64, 1.0..20.0f64)),
+        prop::array::uniform8(-1.0..1.0f64),
+    )
+        .prop_map(|(rows, limits, shift)| {
+            let mut r = [[0.0; 2]; M];
+            let lower = limits.map(|(below, _)| -below);
+            let upper = limits.map(|(_, above)| above);
+            let mut previous = 0.0;
+            for (i, &(angle, norm, twin, decades)) in rows.iter().enumerate() {
+                let a = match twin {
+                    0 if i > 0 => previous + 10f64.powf(-decades),
+                    1 if i > 0 => previous,
+                    _ => angle,
+                };
+                let n = if twin == 1 && i > 0 { rows[i - 1].1 } else { norm };
+                r[i] = [n * a.cos(), n * a.sin()];
+                previous = a;
+            }
+            (r, lower, upper, shift)
+        })
+}
+
+fn polygon<T: Real>(c: &Case, tau: f64) -> Option<FeasiblePolygon<T, M>> {
+    let rows = c.0.map(|r| Vector2::new(T::lit(r[0]), T::lit(r[1])));
+    let lower: [T; M] = core::array::from_fn(|i| T::lit(c.1[i] + tau * c.3[i]));
+    let upper: [T; M] = core::array::from_fn(|i| T::lit(c.2[i] + tau * c.3[i]));
+    FeasiblePolygon::new(rows, lower, upper).ok()
+}
+
+/// The case's polygon shifted in small steps until it is empty (vertices
+/// appear and go, lines become concurrent), each walk hinted by the last.
+fn shifted<T: Real + std::fmt::Debug>(c: &Case, counts: &mut Counts) {
+    let mut kept = VertexList::new();
+    let mut warm = None;
+    for step in 0..400 {
+        let tau = 0.1 * step as f64;
+        let Some(p) = polygon::<T>(c, tau) else { continue };
+        let context = || format!("shift {tau} of {c:?}");
+        match compare(&p, warm, &mut kept, counts, &context) {
+            Ok(found) => warm = Some(found.robust_pair),
+            Err(_) => break,
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(persisted_config(64, file!()))]
+
+    /// Polygons moved towards the border in `f64` and `f32`, and hints from
+    /// another polygon (after a warm start that holds, the only case in
+    /// which hints are tried): the plain walk's outcome every time.
+    #[test]
+    fn hinted_walk_is_the_plain_walk_towards_the_border(c in case(), other in case()) {
+        let mut counts = Counts::default();
+        let mut strangers = 0;
+        shifted::<f64>(&c, &mut counts);
+        shifted::<f32>(&c, &mut counts);
+        // A stranger's polygon as the hints: the hints are only tried.
+        for tau in [0.0, 1.0, 3.0] {
+            if let (Some(p), Some(q)) = (polygon::<f64>(&c, tau), polygon::<f64>(&other, tau)) {
+                // Hints are tried only after a warm start that holds: `p`'s own.
+                let warm = p.walk(None).ok().map(|found| found.robust_pair);
+                let mut kept = VertexList::new();
+                let _ = q.walk_into(None, &mut kept);
+                let context = || format!("{c:?} hinted by {other:?} at {tau}");
+                let _ = compare(&p, warm, &mut kept, &mut counts, &context);
+                strangers += 1;
+            }
+        }
+        prop_assert!(counts.walks > 0 && strangers > 0, "{counts:?}, {strangers} strangers");
+        // The origin is inside every unshifted polygon: the first shifts
+        // are walked, hinted by the one before.
+        prop_assert!(counts.hinted > 0, "{counts:?}");
+    }
+}
