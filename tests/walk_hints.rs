@@ -34,10 +34,10 @@ struct Counts {
 /// Walks `polygon` from `warm` with the hints `kept` holds (its last
 /// polygon; it keeps this one) and with none, and requires the same
 /// outcome bit for bit. Returns the hinted walk's outcome.
-fn compare<T: Real + std::fmt::Debug>(
-    polygon: &FeasiblePolygon<T, M>,
+fn compare<T: Real + std::fmt::Debug, const K: usize>(
+    polygon: &FeasiblePolygon<T, K>,
     warm: Option<ActivePair>,
-    kept: &mut VertexList<T, M>,
+    kept: &mut VertexList<T, K>,
     counts: &mut Counts,
     context: &dyn Fn() -> String,
 ) -> Result<PolygonSummary<T>, Error> {
@@ -218,4 +218,36 @@ proptest! {
         // are walked, hinted by the one before.
         prop_assert!(counts.hinted > 0, "{counts:?}");
     }
+}
+
+/// A line that passes within its tolerance outside a vertex, at an angle
+/// where the full step's rule for concurrent lines (Sect. 2.3) follows it:
+/// the square `0 <= x, y <= 1` and a third cable `-x/2 + y sqrt(3)/2 <=
+/// c`, its line through `(1, 1)` moved out by `tol / 4`. From `(1, 0)` up
+/// the edge `x = 1`, `y = 1` is reached first and the third line within
+/// its tolerance there; the rule takes the third line. Hinted by the same
+/// polygon with that line well inside (there `y = 1` followed `x = 1`), the
+/// hint must be refused: the third line is only `tol / 4` from the
+/// crossing, below the hinted step's gap.
+#[test]
+fn a_line_within_tolerance_of_the_hinted_vertex_refuses_the_hint() {
+    let rows = [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0), Vector2::new(-0.5, 3f64.sqrt() / 2.0)];
+    let through = rows[2].dot(&Vector2::new(1.0, 1.0));
+    let square =
+        |shift: f64| FeasiblePolygon::<f64, 3>::new(rows, [0.0, 0.0, -10.0], [1.0, 1.0, through + shift]);
+    let tol = square(0.0).unwrap().tolerance();
+    let (near, inside) = (square(tol / 4.0).unwrap(), square(0.2).unwrap());
+    let mut kept = VertexList::new();
+    let found = inside.walk_into(None, &mut kept).unwrap();
+    // The hint is there: `y = 1` (line 3) after `x = 1` (line 1).
+    assert!(kept.iter().any(|v| v.lines == (1, 3)), "{:?}", kept.iter().collect::<Vec<_>>());
+    let mut counts = Counts::default();
+    let mut plain = VertexList::new();
+    let reference = near.walk_into(Some(found.robust_pair), &mut plain).unwrap();
+    assert!(reference.warm_start_held);
+    // The full walk leaves `x = 1` for the third cable's line (line 5).
+    assert!(plain.iter().any(|v| v.lines == (1, 5)), "{:?}", plain.iter().collect::<Vec<_>>());
+    let hinted = compare(&near, Some(found.robust_pair), &mut kept, &mut counts, &|| "near".into()).unwrap();
+    assert!(hinted.hinted_steps < hinted.vertices, "{hinted:?}");
+    assert_eq!(counts.walks, 1);
 }

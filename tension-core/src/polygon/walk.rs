@@ -21,7 +21,13 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     }
 
     /// [`Self::walk`] with the vertices written to the caller's list (which
-    /// is cleared first): nothing large is returned.
+    /// is cleared first): nothing large is returned. When the warm start
+    /// holds, the list's previous content (a control loop's: the last
+    /// cycle's polygon) is read first, as each line's likely successor
+    /// along the boundary; a step takes it only when it is provably the
+    /// full step's choice (`hinted_step`), so any content gives the same
+    /// answer, bit for bit, as an empty list, and the summary counts the
+    /// steps that did (`hinted_steps`).
     pub fn walk_into(
         &self,
         warm: Option<ActivePair>,
