@@ -60,7 +60,11 @@ struct Counts {
 /// attempt that fails without a proof is tried again cold
 /// (`tension_core::methods::solve`), hence twice; the rest is what a
 /// single attempt costs beyond those phases (the solution, the robustness,
-/// the warm start's check).
+/// the warm start's check). A walk after a held warm start first tries
+/// the previous polygon's lines (`walk_into`'s hints) and stops after one
+/// wrong hint: that test (the crossing and at most two passes over the
+/// cables, each no dearer than a full step's) is counted as two more
+/// vertices ([`HINT_TEST_STEPS`]).
 #[derive(Clone, Copy, Default)]
 struct Bound {
     factorisation: u32,
@@ -71,9 +75,16 @@ struct Bound {
     most_vertices: u32,
 }
 
+/// A wrong hint's test in the walk, in full steps (see [`Bound`]).
+const HINT_TEST_STEPS: u32 = 2;
+
 impl Bound {
+    /// The walk's steps in an attempt: at most `2 M` vertices, plus one
+    /// wrong hint's test.
+    const STEPS: u32 = 2 * CABLES as u32 + HINT_TEST_STEPS;
+
     fn value(&self) -> u32 {
-        let attempt = self.polygon + self.search + 2 * CABLES as u32 * self.per_vertex;
+        let attempt = self.polygon + self.search + Self::STEPS * self.per_vertex;
         self.factorisation + 2 * attempt + self.rest
     }
 }
@@ -216,11 +227,11 @@ pub fn run(board: &mut Board, poses: u32) -> ! {
     let barycenter = worst[0].cost;
     pass &= barycenter <= b;
     defmt::println!(
-        "stress bound, barycenter: factorisation {=u32} + 2 x (polygon {=u32} + first-vertex search {=u32} + {=u32} vertices x {=u32} a vertex) + rest {=u32} = {=u32} {=str}; most vertices seen {=u32}; measured worst {=u32}: {=str}",
+        "stress bound, barycenter: factorisation {=u32} + 2 x (polygon {=u32} + first-vertex search {=u32} + {=u32} steps (2 M vertices, one wrong hint's test) x {=u32} a vertex) + rest {=u32} = {=u32} {=str}; most vertices seen {=u32}; measured worst {=u32}: {=str}",
         bound.factorisation,
         bound.polygon,
         bound.search,
-        2 * CABLES as u32,
+        Bound::STEPS,
         bound.per_vertex,
         bound.rest,
         b,
