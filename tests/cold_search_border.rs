@@ -10,7 +10,7 @@
 //! empty, `FeasiblePolygon::brute_force_among`) finds the same vertices, in
 //! the same order, with the same outcome, as the pairs of all lines.
 
-use nalgebra::Vector2;
+use cdpr_integration_tests::{eight_cable_polygon, shifted_polygon, EightCablePolygon};
 use proptest::{prelude::*, test_runner::TestRunner};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use tension_core::{
@@ -20,52 +20,14 @@ use tension_core::{
 
 const M: usize = 8;
 
-/// Rows, limits and a shift direction for the limits' offsets.
-type Case = ([[f64; 2]; M], [f64; M], [f64; M], [f64; M]);
+type Case = EightCablePolygon;
 
 fn case() -> impl Strategy<Value = Case> {
-    (
-        prop::array::uniform8((0.0..std::f64::consts::TAU, 0.05..3.0f64, 0u8..4, 2.0..9.0f64)),
-        prop::array::uniform8((1.0..20.0f64, 1.0..20.0f64)),
-        prop::array::uniform8(-1.0..1.0f64),
-    )
-        .prop_map(|(rows, limits, shift)| {
-            let mut r = [[0.0; 2]; M];
-            // The offsets' origin inside every cable's limits: feasible
-            // before the shift.
-            let mut lower = limits.map(|(below, _)| -below);
-            let mut upper = limits.map(|(_, above)| above);
-            let mut v = shift;
-            let mut previous = 0.0;
-            for (i, &(angle, norm, twin, decades)) in rows.iter().enumerate() {
-                // One row in four nearly parallel to the one before it (at
-                // 1e-2 to 1e-9 rad), one in four a twin of it: the same
-                // direction and norm, limits and shift within 1e-6 of its
-                // (IPAnema 1's symmetric poses).
-                let a = match twin {
-                    0 if i > 0 => previous + 10f64.powf(-decades),
-                    1 if i > 0 => previous,
-                    _ => angle,
-                };
-                let n = if twin == 1 && i > 0 { rows[i - 1].1 } else { norm };
-                if twin == 1 && i > 0 {
-                    let tiny = 1e-6 * (angle - 3.0);
-                    lower[i] = lower[i - 1] + tiny;
-                    upper[i] = upper[i - 1] + tiny;
-                    v[i] = v[i - 1] + tiny;
-                }
-                r[i] = [n * a.cos(), n * a.sin()];
-                previous = a;
-            }
-            (r, lower, upper, v)
-        })
+    eight_cable_polygon()
 }
 
 fn polygon<T: Real>(c: &Case, tau: f64) -> Option<FeasiblePolygon<T, M>> {
-    let rows = c.0.map(|r| Vector2::new(T::lit(r[0]), T::lit(r[1])));
-    let lower: [T; M] = core::array::from_fn(|i| T::lit(c.1[i] + tau * c.3[i]));
-    let upper: [T; M] = core::array::from_fn(|i| T::lit(c.2[i] + tau * c.3[i]));
-    FeasiblePolygon::new(rows, lower, upper).ok()
+    shifted_polygon(c, tau)
 }
 
 fn exhaustive<T: Real>(c: &Case, tau: f64) -> Option<bool> {

@@ -10,7 +10,8 @@
 //! have reached them.
 
 use cdpr_integration_tests::{
-    frame_poses, persisted_config, shipped_robot, smooth_path, IPANEMA1_PATH, SUSPENDED8_PATH,
+    eight_cable_polygon, frame_poses, persisted_config, shifted_polygon, shipped_robot, smooth_path,
+    EightCablePolygon, IPANEMA1_PATH, SUSPENDED8_PATH,
 };
 use nalgebra::{SVector, Vector2};
 use proptest::prelude::*;
@@ -136,41 +137,14 @@ fn hinted_walk_is_the_plain_walk_on_the_shipped_robots() {
     }
 }
 
-/// Eight cables' rows (one in four nearly parallel to the one before it,
-/// one in four its twin, as on IPAnema 1), limits around the origin and a
-/// direction in which the limits' offsets move.
-type Case = ([[f64; 2]; M], [f64; M], [f64; M], [f64; M]);
+type Case = EightCablePolygon;
 
 fn case() -> impl Strategy<Value = Case> {
-    (
-        prop::array::uniform8((0.0..std::f64::consts::TAU, 0.05..3.0f64, 0u8..4, 2.0..9.0f64)),
-        prop::array::uniform8((1.0..20.0f64, 1.0..20.0f64)),
-        prop::array::uniform8(-1.0..1.0f64),
-    )
-        .prop_map(|(rows, limits, shift)| {
-            let mut r = [[0.0; 2]; M];
-            let lower = limits.map(|(below, _)| -below);
-            let upper = limits.map(|(_, above)| above);
-            let mut previous = 0.0;
-            for (i, &(angle, norm, twin, decades)) in rows.iter().enumerate() {
-                let a = match twin {
-                    0 if i > 0 => previous + 10f64.powf(-decades),
-                    1 if i > 0 => previous,
-                    _ => angle,
-                };
-                let n = if twin == 1 && i > 0 { rows[i - 1].1 } else { norm };
-                r[i] = [n * a.cos(), n * a.sin()];
-                previous = a;
-            }
-            (r, lower, upper, shift)
-        })
+    eight_cable_polygon()
 }
 
 fn polygon<T: Real>(c: &Case, tau: f64) -> Option<FeasiblePolygon<T, M>> {
-    let rows = c.0.map(|r| Vector2::new(T::lit(r[0]), T::lit(r[1])));
-    let lower: [T; M] = core::array::from_fn(|i| T::lit(c.1[i] + tau * c.3[i]));
-    let upper: [T; M] = core::array::from_fn(|i| T::lit(c.2[i] + tau * c.3[i]));
-    FeasiblePolygon::new(rows, lower, upper).ok()
+    shifted_polygon(c, tau)
 }
 
 /// The case's polygon shifted in small steps until it is empty (vertices

@@ -8,13 +8,13 @@ use std::{
     time::{Duration, Instant},
 };
 
-use nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector2};
 use proptest::{
     prelude::*,
     test_runner::{FileFailurePersistence, RngSeed},
 };
 use robot_file::RobotFile;
-use tension_core::{Real, Robot, TensionLimits};
+use tension_core::{polygon::FeasiblePolygon, Real, Robot, TensionLimits};
 
 /// A proptest configuration of `cases` cases whose failures are saved beside
 /// `source_file` (pass `file!()`) as `<name>.proptest-regressions`, committed
@@ -381,4 +381,55 @@ pub fn trajectory<const N: usize>(waypoints: &[SVector<f64, N>]) -> Vec<Sample<N
         }
     }
     out
+}
+
+/// Eight cables' null-space rows, their limits' offsets (the origin inside
+/// every cable's limits) and a direction in which the offsets move.
+pub type EightCablePolygon = ([[f64; 2]; 8], [f64; 8], [f64; 8], [f64; 8]);
+
+/// Random [`EightCablePolygon`]s: one row in four nearly parallel to the one
+/// before it (at 1e-2 to 1e-9 rad), one in four a twin of it (the same
+/// direction and norm, limits and shift within 1e-6 of its: IPAnema 1's
+/// symmetric poses).
+pub fn eight_cable_polygon() -> impl Strategy<Value = EightCablePolygon> {
+    (
+        prop::array::uniform8((0.0..std::f64::consts::TAU, 0.05..3.0f64, 0u8..4, 2.0..9.0f64)),
+        prop::array::uniform8((1.0..20.0f64, 1.0..20.0f64)),
+        prop::array::uniform8(-1.0..1.0f64),
+    )
+        .prop_map(|(rows, limits, shift)| {
+            let mut r = [[0.0; 2]; 8];
+            // The offsets' origin inside every cable's limits: feasible
+            // before the shift.
+            let mut lower = limits.map(|(below, _)| -below);
+            let mut upper = limits.map(|(_, above)| above);
+            let mut v = shift;
+            let mut previous = 0.0;
+            for (i, &(angle, norm, twin, decades)) in rows.iter().enumerate() {
+                let a = match twin {
+                    0 if i > 0 => previous + 10f64.powf(-decades),
+                    1 if i > 0 => previous,
+                    _ => angle,
+                };
+                let n = if twin == 1 && i > 0 { rows[i - 1].1 } else { norm };
+                if twin == 1 && i > 0 {
+                    let tiny = 1e-6 * (angle - 3.0);
+                    lower[i] = lower[i - 1] + tiny;
+                    upper[i] = upper[i - 1] + tiny;
+                    v[i] = v[i - 1] + tiny;
+                }
+                r[i] = [n * a.cos(), n * a.sin()];
+                previous = a;
+            }
+            (r, lower, upper, v)
+        })
+}
+
+/// The case's polygon with its limits' offsets moved by `tau` times its
+/// direction (`None` when `FeasiblePolygon::new` refuses it).
+pub fn shifted_polygon<T: Real>(c: &EightCablePolygon, tau: f64) -> Option<FeasiblePolygon<T, 8>> {
+    let rows = c.0.map(|r| Vector2::new(T::lit(r[0]), T::lit(r[1])));
+    let lower: [T; 8] = core::array::from_fn(|i| T::lit(c.1[i] + tau * c.3[i]));
+    let upper: [T; 8] = core::array::from_fn(|i| T::lit(c.2[i] + tau * c.3[i]));
+    FeasiblePolygon::new(rows, lower, upper).ok()
 }
