@@ -101,7 +101,7 @@ impl SetpointRange {
     /// limit is NaN or below zero).
     ///
     /// Every setpoint is checked, so the symmetric limits are tested on the
-    /// values' bit patterns ([`within_magnitude`]): one integer comparison
+    /// values' bit patterns (`within_magnitude`): one integer comparison
     /// per value and no branch, where two float comparisons and a
     /// finiteness test each cost a flag transfer on the Cortex-M4F.
     pub fn contains(&self, s: &cdpr_protocol::Setpoint) -> bool {
