@@ -130,10 +130,16 @@ mod app {
         let mut overrun = false;
         let mut identify = false;
         let mut last_state = control.supervisor().state();
+        // What one receive interrupt costs outside its measured body.
+        let entry_exit = serial::calibrate_entry_exit();
+        defmt::println!(
+            "the receive interrupt's entry and exit: {=u32} instructions (taken out of each step with its body)",
+            clock::ticks_to_units(entry_exit)
+        );
         let mut releases = Releases::start().await;
         loop {
             let start = clock.ticks();
-            let interrupted = serial::interrupt_ticks();
+            let interrupted = serial::InterruptLoad::now();
             bsp::feed_watchdog();
             // At most FRAME_BUDGET frames (reassembled by the USART1
             // interrupt), whatever arrives; the rest waits.
@@ -149,8 +155,9 @@ mod app {
             }
             let report = control.step(&*clock, drives, overrun);
             // The step's own work: the receive interrupt's time within it
-            // is left out (bounded apart, see `serial`).
-            let interrupt = serial::interrupt_ticks().wrapping_sub(interrupted);
+            // (bodies, entries and exits) is left out (bounded apart, see
+            // `serial`).
+            let interrupt = interrupted.since(entry_exit);
             control.record_cost(clock::ticks_to_units(clock.since(start).saturating_sub(interrupt)));
             // The encoders' stand-in (QEMU), outside the measured step.
             drives.advance(control.last_feasible_lengths());
