@@ -634,9 +634,10 @@ fn entry_exit_mark(line: &str) -> Option<u32> {
 /// The receive interrupt's cost outside its measured body (exception entry
 /// and exit, the handler's prologue and epilogue), which the product
 /// measures at start-up and takes out of each step's reported cost with
-/// every interrupt that fell within the step (a QEMU backlog of a few
-/// hundred bytes landing in one step once put a stream's step at 21 405,
-/// over the budget, though its own work was about 15 000): present, and
+/// every interrupt that fell within the step (without it, a QEMU backlog
+/// landing in one step put a stream's step at 21 405 in a loaded run, over
+/// the budget; with it, the stream's first steps reported 13 400-15 300 in
+/// ten runs with QEMU stopped on purpose for 30-200 ms at a time): present, and
 /// within what those few instructions can cost. Zero (every trial
 /// interrupted by a byte) would only overstate the step; a figure above
 /// the bound would hide the step's own work behind a burst.
