@@ -1,10 +1,13 @@
 //! What `-C target-cpu=native` does to the host's cost, beside the default
 //! build, in one run (`cargo bench --bench native_flags`; issue 17).
 //!
-//! The bench measures its table (the default build), then builds itself
-//! again with `RUSTFLAGS="-C target-cpu=native"` in `target/native` and
-//! runs that copy for the same table, and prints both side by side with
-//! the ratio native / default. The table, per robot (suspended-8, IPAnema 1)
+//! The bench measures its table (the default build), builds itself again
+//! with `RUSTFLAGS="-C target-cpu=native"` in `target/native` and runs
+//! that copy for the same table, and repeats the pair [`ALTERNATIONS`]
+//! times; it prints both side by side with the ratio native / default and
+//! f32 / f64, each taken within one alternation (the median of the
+//! alternations' ratios, with their range). `CDPR_NATIVE_FLAGS_RUSTFLAGS`
+//! builds the copy with other flags (e.g. `-C target-cpu=x86-64-v3`). The table, per robot (suspended-8, IPAnema 1)
 //! and precision (`f64`, `f32`): the kinematics (`Robot::wrench_problem`:
 //! `W` and `f` of a pose) and the methods a controller runs (barycenter
 //! warm and cold, closed form, improved closed form, puncture, analytic
@@ -132,19 +135,32 @@ fn table(c: &mut Criterion, child: bool) -> Vec<Row> {
     all
 }
 
-/// Builds and runs this bench with native flags; its rows, by table and name.
+/// Overrides the copy's `RUSTFLAGS` (e.g. `-C target-cpu=x86-64-v3`, or
+/// `-C target-cpu=native -C target-feature=-avx512f`): the copy is then
+/// built in its own `target/native-...` directory.
+const FLAGS_VAR: &str = "CDPR_NATIVE_FLAGS_RUSTFLAGS";
+
+/// The copy's `RUSTFLAGS`: [`FLAGS_VAR`], or `-C target-cpu=native`.
+fn copy_flags() -> String {
+    std::env::var(FLAGS_VAR).unwrap_or_else(|_| "-C target-cpu=native".into())
+}
+
+/// Builds and runs this bench with the copy's flags ([`copy_flags`]); its
+/// rows, by table and name.
 fn native_rows() -> Result<Vec<Row>, String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let root = env!("CARGO_MANIFEST_DIR");
-    let target = std::path::Path::new(root).join("target/native");
-    println!(
-        "building and running the native copy (RUSTFLAGS=\"-C target-cpu=native\", {})",
-        target.display()
-    );
+    let flags = copy_flags();
+    let dir = match std::env::var(FLAGS_VAR) {
+        Ok(_) => format!("target/native-{}", flags.replace(|c: char| !c.is_ascii_alphanumeric(), "_")),
+        Err(_) => "target/native".into(),
+    };
+    let target = std::path::Path::new(root).join(dir);
+    println!("building and running the copy (RUSTFLAGS=\"{flags}\", {})", target.display());
     let out = Command::new(cargo)
         .current_dir(root)
         .args(["bench", "--bench", "native_flags"])
-        .env("RUSTFLAGS", "-C target-cpu=native")
+        .env("RUSTFLAGS", &flags)
         .env("CARGO_TARGET_DIR", &target)
         .env(CHILD, "1")
         .output()
@@ -161,43 +177,82 @@ fn native_rows() -> Result<Vec<Row>, String> {
         .collect())
 }
 
+/// The default table and the native copy's, measured alternately this many
+/// times: this machine has slow spells (a whole process 1.2-1.3x slower
+/// for a while), so a ratio is taken within one alternation and the
+/// median of the alternations' ratios reported with their range.
+const ALTERNATIONS: usize = 5;
+
+/// The median of `values` (the upper one of an even count); `None` if empty.
+fn median(values: &mut [f64]) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied()
+}
+
+/// `median (min-max)` of the per-alternation ratios `a / b`, `-` when a
+/// row is missing from one of them.
+fn ratios(a: &[Option<f64>], b: &[Option<f64>]) -> String {
+    let mut r: Vec<f64> = a.iter().zip(b).filter_map(|(&a, &b)| Some(a? / b?)).collect();
+    if r.len() < a.len() {
+        return "-".into();
+    }
+    let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    median(&mut r).map_or("-".into(), |m| format!("{m:.2} ({lo:.2}-{hi:.2})"))
+}
+
 fn main() {
     let child = std::env::var_os(CHILD).is_some();
     let mut c = Criterion::default().configure_from_args();
-    let default = table(&mut c, child);
     if child {
-        for (label, name, ns) in &default {
+        for (label, name, ns) in &table(&mut c, true) {
             println!("row\t{label}\t{name}\t{ns}");
         }
         return;
     }
+    // Criterion's measurement of the default build, then the two tables
+    // alternately.
+    let first = table(&mut c, false);
     c.final_summary();
-    let native = match native_rows() {
-        Ok(rows) => rows,
-        Err(e) => {
-            eprintln!("{e}");
-            std::process::exit(1);
+    let mut default = vec![first];
+    let mut native = Vec::new();
+    for alternation in 0..ALTERNATIONS {
+        if alternation > 0 {
+            default.push(table(&mut c, true));
         }
+        match native_rows() {
+            Ok(rows) => native.push(rows),
+            Err(e) => {
+                eprintln!("{e}");
+                std::process::exit(1);
+            }
+        }
+    }
+    let column = |tables: &[Vec<Row>], label: &str, name: &str| -> Vec<Option<f64>> {
+        tables.iter().map(|rows| lookup(rows, label, name)).collect()
     };
-    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
-        (Some(a), Some(b)) => format!("{:.2}", a / b),
-        _ => "-".into(),
+    let shown = |values: Vec<Option<f64>>| {
+        let mut v: Vec<f64> = values.into_iter().flatten().collect();
+        median(&mut v).map_or("(missing)".into(), |m| format!("{m:.0}"))
     };
-    println!("\nmedian per call, ns, over 1000 poses x {ROUNDS} rounds: the default build and -C target-cpu=native");
+    println!(
+        "\nmedian per call, ns, over 1000 poses x {ROUNDS} rounds, the default build and the copy (\"native\": RUSTFLAGS=\"{}\") measured alternately {ALTERNATIONS} times: each build's median of its {ALTERNATIONS} medians, and native / default taken per alternation (median, min-max)",
+        copy_flags()
+    );
     println!("| robot, precision | call | default | native | native / default |");
     println!("| --- | --- | ---: | ---: | ---: |");
-    for (label, name, d) in &default {
-        let n = lookup(&native, label, name);
-        let shown = n.map_or("(missing)".into(), |n| format!("{n:.0}"));
-        println!("| {label} | {name} | {d:.0} | {shown} | {} |", ratio(n, Some(*d)));
+    for (label, name, _) in &default[0] {
+        let (d, n) = (column(&default, label, name), column(&native, label, name));
+        println!("| {label} | {name} | {} | {} | {} |", shown(d.clone()), shown(n.clone()), ratios(&n, &d));
     }
-    println!("\nf32 / f64 per call (the same build)");
+    println!("\nf32 / f64 per call, per alternation within one build (median, min-max)");
     println!("| robot | call | default | native |");
     println!("| --- | --- | ---: | ---: |");
-    for (label, name, _) in default.iter().filter(|(l, _, _)| l.ends_with(" f32")) {
+    for (label, name, _) in default[0].iter().filter(|(l, _, _)| l.ends_with(" f32")) {
         let robot = label.trim_end_matches(" f32");
         let f64_label = format!("{robot} f64");
-        let of = |rows: &[Row]| ratio(lookup(rows, label, name), lookup(rows, &f64_label, name));
+        let of =
+            |tables: &[Vec<Row>]| ratios(&column(tables, label, name), &column(tables, &f64_label, name));
         println!("| {robot} | {name} | {} | {} |", of(&default), of(&native));
     }
 }

