@@ -637,7 +637,7 @@ fn entry_exit_mark(line: &str) -> Option<u32> {
 /// every interrupt that fell within the step (without it, a QEMU backlog
 /// landing in one step put a stream's step at 21 405 in a loaded run, over
 /// the budget; with it, the stream's first steps reported 13 400-15 300 in
-/// ten runs with QEMU stopped on purpose for 30-200 ms at a time): present, and
+/// six runs with QEMU stopped on purpose for 30-200 ms at a time): present, and
 /// within what those few instructions can cost. Zero (every trial
 /// interrupted by a byte) would only overstate the step; a figure above
 /// the bound would hide the step's own work behind a burst.
