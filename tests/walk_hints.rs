@@ -3,7 +3,9 @@
 //! takes it only when that is provably what the full step of Lamaury &
 //! Gouttefarde 2013, Eqs. 16-21, would choose) change nothing: the same
 //! vertices, lines, error bounds, centroid and warm-start pair, bit for bit,
-//! as the walk with an empty list (no hint: every step a full one), along
+//! as the walk with an empty list (no hint: every step a full one), whose
+//! centroid (summed as the walk goes) is the list's by the shoelace
+//! formulas taken afterwards, along
 //! the shipped robots' paths, across jumps, at polygons shifted towards the
 //! feasibility border, and with hints from an unrelated polygon. Each check
 //! counts the steps that took a hint, so that the comparison is known to
@@ -58,6 +60,12 @@ fn compare<T: Real + std::fmt::Debug, const K: usize>(
                 for (p, q) in [(x.point.x, y.point.x), (x.point.y, y.point.y), (x.error, y.error)] {
                     assert_eq!(format!("{p:?}"), format!("{q:?}"), "{}", context());
                 }
+            }
+            // The centroid the walk summed as it went is the list's, bit
+            // for bit.
+            let (c, area) = polygon.centroid_of(&fresh);
+            for (p, q) in [(c.x, a.centroid.x), (c.y, a.centroid.y), (area, a.area)] {
+                assert_eq!(format!("{p:?}"), format!("{q:?}"), "{}", context());
             }
             counts.walks += 1;
             // A walk's steps: one per vertex after the first, and the

@@ -79,6 +79,6 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 j -= 1;
             }
         }
-        self.finish(vertices, None, false, 0)
+        self.finish(vertices, None, None, false, 0)
     }
 }

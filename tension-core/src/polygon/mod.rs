@@ -26,6 +26,7 @@ mod walk;
 use nalgebra::Vector2;
 
 pub use centroid::centroid;
+use centroid::Shoelace;
 
 use crate::{
     scalar::{all_finite, finite, max, min},

@@ -53,7 +53,9 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         // changed too much for its lines to be worth a try).
         let hints = if held { successors(vertices) } else { [[NO_LINE; 2]; M] };
         match self.walk_from(start, vertices, &hints) {
-            Some((robust_pair, hinted)) => self.finish(vertices, Some(robust_pair), held, hinted),
+            Some((robust_pair, hinted, sums)) => {
+                self.finish(vertices, Some(sums), Some(robust_pair), held, hinted)
+            }
             // An anomaly (an edge met twice, on a sliver): every vertex by
             // the pairs of the lines the clipping does not prove empty (the
             // others hold none).
@@ -82,9 +84,11 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         start: Vertex<T>,
         vertices: &mut VertexList<T, M>,
         hints: &[[u8; 2]; M],
-    ) -> Option<(ActivePair, usize)> {
+    ) -> Option<(ActivePair, usize, Shoelace<T>)> {
         vertices.clear();
         vertices.push(start).ok()?;
+        // The centroid's sums, each vertex added as it is found.
+        let mut sums = Shoelace::new(start.point, self.inv_scale);
         // Every test below is on the unit-normal lines (`UnitLines`): slacks
         // and rates in length units, no division by a row norm per cable,
         // no test for a cable left out.
@@ -141,7 +145,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         }
         let mut best_lines = start.lines;
         let Some(first_edge) = edge else {
-            return Some((pair_of(best_lines), 0)); // a single point
+            return Some((pair_of(best_lines), 0, sums)); // a single point
         };
         let mut visited: u64 = 1 << first_edge;
         let mut h = first_edge;
@@ -192,13 +196,14 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 }
                 hinted_steps += 1;
                 if hinted == first_edge {
-                    return Some((pair_of(best_lines), hinted_steps));
+                    return Some((pair_of(best_lines), hinted_steps, sums));
                 }
                 if visited & (1 << hinted) != 0 {
                     return None;
                 }
                 visited |= 1 << hinted;
                 vertices.push(Vertex { point: w, lines: (h as u8, hinted as u8), error }).ok()?;
+                sums.add(w);
                 if w_margin > best_margin {
                     best_margin = w_margin;
                     best_lines = (h as u8, hinted as u8);
@@ -334,7 +339,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             }
             let g = next?;
             if g == first_edge {
-                return Some((pair_of(best_lines), hinted_steps));
+                return Some((pair_of(best_lines), hinted_steps, sums));
             }
             if visited & (1 << g) != 0 {
                 return None;
@@ -351,6 +356,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 }
             };
             vertices.push(Vertex { point: w, lines: (h as u8, g as u8), error }).ok()?;
+            sums.add(w);
             margin_pending = true;
             prev = Some(h);
             h = g;
