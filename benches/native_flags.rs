@@ -140,9 +140,13 @@ fn table(c: &mut Criterion, child: bool) -> Vec<Row> {
 /// built in its own `target/native-...` directory.
 const FLAGS_VAR: &str = "CDPR_NATIVE_FLAGS_RUSTFLAGS";
 
-/// The copy's `RUSTFLAGS`: [`FLAGS_VAR`], or `-C target-cpu=native`.
-fn copy_flags() -> String {
-    std::env::var(FLAGS_VAR).unwrap_or_else(|_| "-C target-cpu=native".into())
+/// The copy's `RUSTFLAGS`: [`FLAGS_VAR`], or `-C target-cpu=native`; and
+/// whether they were given.
+fn copy_flags() -> (String, bool) {
+    match std::env::var(FLAGS_VAR) {
+        Ok(flags) => (flags, true),
+        Err(_) => ("-C target-cpu=native".into(), false),
+    }
 }
 
 /// Builds and runs this bench with the copy's flags ([`copy_flags`]); its
@@ -150,10 +154,11 @@ fn copy_flags() -> String {
 fn native_rows() -> Result<Vec<Row>, String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let root = env!("CARGO_MANIFEST_DIR");
-    let flags = copy_flags();
-    let dir = match std::env::var(FLAGS_VAR) {
-        Ok(_) => format!("target/native-{}", flags.replace(|c: char| !c.is_ascii_alphanumeric(), "_")),
-        Err(_) => "target/native".into(),
+    let (flags, given) = copy_flags();
+    let dir = if given {
+        format!("target/native-{}", flags.replace(|c: char| !c.is_ascii_alphanumeric(), "_"))
+    } else {
+        "target/native".into()
     };
     let target = std::path::Path::new(root).join(dir);
     println!("building and running the copy (RUSTFLAGS=\"{flags}\", {})", target.display());
@@ -231,19 +236,19 @@ fn main() {
     let column = |tables: &[Vec<Row>], label: &str, name: &str| -> Vec<Option<f64>> {
         tables.iter().map(|rows| lookup(rows, label, name)).collect()
     };
-    let shown = |values: Vec<Option<f64>>| {
-        let mut v: Vec<f64> = values.into_iter().flatten().collect();
+    let shown = |values: &[Option<f64>]| {
+        let mut v: Vec<f64> = values.iter().flatten().copied().collect();
         median(&mut v).map_or("(missing)".into(), |m| format!("{m:.0}"))
     };
     println!(
         "\nmedian per call, ns, over 1000 poses x {ROUNDS} rounds, the default build and the copy (\"native\": RUSTFLAGS=\"{}\") measured alternately {ALTERNATIONS} times: each build's median of its {ALTERNATIONS} medians, and native / default taken per alternation (median, min-max)",
-        copy_flags()
+        copy_flags().0
     );
     println!("| robot, precision | call | default | native | native / default |");
     println!("| --- | --- | ---: | ---: | ---: |");
     for (label, name, _) in &default[0] {
         let (d, n) = (column(&default, label, name), column(&native, label, name));
-        println!("| {label} | {name} | {} | {} | {} |", shown(d.clone()), shown(n.clone()), ratios(&n, &d));
+        println!("| {label} | {name} | {} | {} | {} |", shown(&d), shown(&n), ratios(&n, &d));
     }
     println!("\nf32 / f64 per call, per alternation within one build (median, min-max)");
     println!("| robot | call | default | native |");

@@ -618,17 +618,21 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
     Ok(())
 }
 
+/// The number that follows `marker` in a firmware log line.
+fn logged_number(line: &str, marker: &str) -> Option<u32> {
+    let rest = line.split(marker).nth(1)?;
+    rest.split(' ').next()?.parse().ok()
+}
+
 /// The bytes of a firmware log line's "stack high-water mark N bytes".
 fn stack_mark(line: &str) -> Option<u32> {
-    let rest = line.split("stack high-water mark ").nth(1)?;
-    rest.split(' ').next()?.parse().ok()
+    logged_number(line, "stack high-water mark ")
 }
 
 /// The instructions of a firmware log line's "the receive interrupt's
 /// entry and exit: N instructions".
 fn entry_exit_mark(line: &str) -> Option<u32> {
-    let rest = line.split("the receive interrupt's entry and exit: ").nth(1)?;
-    rest.split(' ').next()?.parse().ok()
+    logged_number(line, "the receive interrupt's entry and exit: ")
 }
 
 /// The receive interrupt's cost outside its measured body (exception entry

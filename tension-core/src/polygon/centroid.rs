@@ -82,9 +82,7 @@ pub fn centroid<T: Real, const M: usize>(
 
 /// The shoelace sums of [`centroid`] over vertices given one at a time, in
 /// order, from the first (the origin): the walk adds each vertex as it
-/// finds it, so the centroid needs no second pass over the list (and
-/// reads back no vertex just written: on a host with AVX-512 a vertex
-/// stored in two parts and read back whole waited for the stores).
+/// finds it, so the centroid needs no second pass over the list.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Shoelace<T: Real> {
     origin: Vector2<T>,
