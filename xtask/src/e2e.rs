@@ -406,16 +406,34 @@ fn compare(
     Ok(c)
 }
 
+/// The regression ceiling of the product's worst streamed step on the
+/// default robot (telemetry's `step_cost`: at most two setpoint frames
+/// decoded in it, `cdpr_control::FRAME_BUDGET`): measured 13 936 to 14 053
+/// over five runs, QEMU stopped 200 ms every 400 ms in two of them (issue
+/// 17, session 19; 15 150 to 15 246 with four frames a cycle).
+const PRODUCT_CEILING: u32 = 15_000;
+
+/// The ceiling of the product's worst streamed step for `robot`:
+/// [`PRODUCT_CEILING`] for the default robot, the budget for others
+/// (ipanema1 measured 16 603 to 16 672).
+fn product_ceiling(robot: &Path) -> u32 {
+    if crate::firmware::is_default_robot(robot) {
+        PRODUCT_CEILING
+    } else {
+        cdpr_demo::BUDGET
+    }
+}
+
 /// The tracking phase's verdict: enough samples compared, every error within
 /// its tolerance, no frame rejected; the figures, with the step cost the
-/// telemetry reports, whose worst is held to the budget (every robot the
-/// test command runs: since the step takes at most two frames a cycle,
-/// issue 17, ipanema1's streamed worst is about 16 600 too).
+/// telemetry reports, whose worst is held to `ceiling` (at most the
+/// budget, for every robot the test command runs).
 fn judge_tracking(
     c: Comparison,
     samples: &[Telemetry],
     last: Option<Telemetry>,
     tolerances: (f64, f64),
+    ceiling: u32,
 ) -> Result<String, String> {
     let (tension_tol, torque_tol) = tolerances;
     let Comparison { samples: compared, worst_tension, worst_torque } = c;
@@ -443,21 +461,33 @@ fn judge_tracking(
         costs.sort_unstable();
         let cost = |q: usize| costs.get(q * costs.len().saturating_sub(1) / 100).copied().unwrap_or(0);
         let figures = format!(
-            "step cost with frame decoding (telemetry): median {} max {} instructions (budget {}); {compared} samples compared ({enabled} enabled of {} received); worst |t - t_host| {worst_tension:.2e} N, |tau - tau_host| {worst_torque:.2e} N m (tolerances {tension_tol:.2e} N = {TENSION_TOLERANCE:e} of the range, {torque_tol:.2e} N m)",
+            "step cost with frame decoding (telemetry): median {} max {} instructions (budget {}, ceiling {ceiling}); {compared} samples compared ({enabled} enabled of {} received); worst |t - t_host| {worst_tension:.2e} N, |tau - tau_host| {worst_torque:.2e} N m (tolerances {tension_tol:.2e} N = {TENSION_TOLERANCE:e} of the range, {torque_tol:.2e} N m)",
             cost(50),
             cost(100),
             cdpr_demo::BUDGET,
             samples.len()
         );
-        // The product's step (the setpoint frame received and decoded in
-        // it) is held to the budget as the demo's is (issue 17).
-        if costs.is_empty() {
-            Err(format!("{figures}: no step cost reported"))
-        } else if cost(100) <= cdpr_demo::BUDGET {
-            Ok(figures)
-        } else {
-            Err(format!("{figures}: the product's worst step is over the budget"))
+        // The product's step (the setpoint frames received and decoded in
+        // it) is held to the budget and its ceiling as the demo's is
+        // (issue 17).
+        match costs.last() {
+            None => Err(format!("{figures}: no step cost reported")),
+            Some(&worst) => match within_ceiling(worst, ceiling) {
+                Ok(()) => Ok(figures),
+                Err(e) => Err(format!("{figures}: {e}")),
+            },
         }
+    }
+}
+
+/// The product's worst step against the budget and `ceiling`.
+fn within_ceiling(worst: u32, ceiling: u32) -> Result<(), String> {
+    if worst > cdpr_demo::BUDGET {
+        Err("the product's worst step is over the budget".into())
+    } else if worst > ceiling {
+        Err(format!("the product's worst step is over its regression ceiling {ceiling}"))
+    } else {
+        Ok(())
     }
 }
 
@@ -587,12 +617,14 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
     });
     let check = match tracked {
         Err(e) => Err(e),
-        Ok(c) => judge_tracking(c, &tracking, last, (tolerances.tension, tolerances.torque)),
+        Ok(c) => {
+            judge_tracking(c, &tracking, last, (tolerances.tension, tolerances.torque), product_ceiling(file))
+        }
     };
     results.insert(
         2,
         (
-            "streamed trajectory: tensions and torques match the host's f64, the step within the budget"
+            "streamed trajectory: tensions and torques match the host's f64, the step within its ceiling and the budget"
                 .into(),
             check,
         ),
@@ -1131,6 +1163,15 @@ fn method_over_the_link(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn holds_the_product_step_to_its_ceiling_and_the_budget() {
+        assert!(within_ceiling(PRODUCT_CEILING, PRODUCT_CEILING).is_ok());
+        assert!(within_ceiling(PRODUCT_CEILING + 1, PRODUCT_CEILING).is_err());
+        assert!(within_ceiling(cdpr_demo::BUDGET, cdpr_demo::BUDGET).is_ok());
+        assert!(within_ceiling(cdpr_demo::BUDGET + 1, u32::MAX).is_err());
+        assert_eq!(product_ceiling(Path::new("robots/ipanema1.toml")), cdpr_demo::BUDGET);
+    }
 
     #[test]
     fn reads_the_stack_mark_of_a_state_change_line() {
