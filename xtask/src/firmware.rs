@@ -53,7 +53,7 @@ const REGRESSION_CEILING: u32 = 14_800;
 /// The regression ceiling of the step's receive share under the demo's
 /// receive flood: a cycle's `cdpr_control::FRAME_BUDGET` (2) of
 /// back-to-back setpoint frames measured 1 160 instructions (issue 17,
-/// session 19; 4 frames a cycle took about 2 300 before), far below
+/// session 19; 4 frames a cycle took 2 317 before), far below
 /// [`RECEIVE_LIMIT`], which bounds it against the period.
 const RECEIVE_CEILING: u32 = 1_300;
 
