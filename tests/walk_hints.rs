@@ -1,5 +1,6 @@
 //! The walk's hinted steps (`FeasiblePolygon::walk_into` tries, at each
-//! edge, the line that followed it in the polygon its list still holds, and
+//! edge, the line that followed it in the polygon its list's last walk
+//! found, and
 //! takes it only when that is provably what the full step of Lamaury &
 //! Gouttefarde 2013, Eqs. 16-21, would choose) change nothing: the same
 //! vertices, lines, error bounds, centroid and warm-start pair, bit for bit,

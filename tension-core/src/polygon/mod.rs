@@ -68,23 +68,44 @@ pub struct Vertex<T: Real> {
 
 /// Up to `4 M` vertices without allocation (a convex polygon cut from `2 M`
 /// half-planes has at most `2 M`; the brute force may see a few more
-/// near-duplicates before merging them).
+/// near-duplicates before merging them), and the last walk's successor of
+/// each line along the boundary (the next cycle's hints,
+/// [`FeasiblePolygon::walk_into`]).
 #[derive(Debug, Clone)]
 pub struct VertexList<T: Real, const M: usize> {
     slots: [[Vertex<T>; M]; 4],
     len: usize,
+    /// `[cable][side]`: the line the last walk took after this one
+    /// ([`NO_LINE`] when none has). Kept by [`Self::clear`]: the walk reads
+    /// a line's entry before it writes it.
+    successor: [[u8; 2]; M],
 }
 
+/// No successor known (a hint of none).
+const NO_LINE: u8 = u8::MAX;
+
 impl<T: Real, const M: usize> VertexList<T, M> {
-    /// An empty list.
+    /// An empty list with no successor known.
     pub fn new() -> Self {
         let empty = Vertex { point: Vector2::zeros(), lines: (0, 0), error: T::zero() };
-        Self { slots: [[empty; M]; 4], len: 0 }
+        Self { slots: [[empty; M]; 4], len: 0, successor: [[NO_LINE; 2]; M] }
     }
 
-    /// Removes every vertex.
+    /// Removes every vertex (the successors stay: see [`VertexList`]).
     pub fn clear(&mut self) {
         self.len = 0;
+    }
+
+    /// The line the last walk took after line `h` (`2 M` or more: none).
+    fn successor(&self, h: usize) -> usize {
+        self.successor.as_flattened().get(h).map_or(usize::MAX, |&g| g as usize)
+    }
+
+    /// Records that the walk took line `g` after line `h`.
+    fn set_successor(&mut self, h: usize, g: usize) {
+        if let Some(s) = self.successor.as_flattened_mut().get_mut(h) {
+            *s = g as u8;
+        }
     }
 
     /// Capacity, `4 M`.

@@ -21,11 +21,12 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     }
 
     /// [`Self::walk`] with the vertices written to the caller's list (which
-    /// is cleared first): nothing large is returned. When the warm start
-    /// holds, the list's previous content (a control loop's: the last
-    /// cycle's polygon) is read first, as each line's likely successor
-    /// along the boundary; a step takes it only when it is provably the
-    /// full step's choice (`hinted_step`), so any content gives the same
+    /// is cleared first): nothing large is returned. The walk records in
+    /// the list each line's successor along the boundary; when the warm
+    /// start holds, the successors the list kept from its last walk (a
+    /// control loop's: the last cycle's polygon) are read first, as each
+    /// line's likely successor; a step takes one only when it is provably
+    /// the full step's choice (`hinted_step`), so any content gives the same
     /// answer, bit for bit, as an empty list, and the summary counts the
     /// steps that did (`hinted_steps`).
     pub fn walk_into(
@@ -47,12 +48,11 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             Some(v) => v,
             None => self.first_vertex().ok_or(Error::Infeasible)?,
         };
-        // The caller's list still holds its last polygon (a control loop's:
-        // the previous cycle's): each line's successor there is tried first,
-        // when the warm start from it held (after a lost one the polygon has
+        // The caller's list still holds its last walk's successors (a control
+        // loop's: the previous cycle's): each line's is tried first, when
+        // the warm start from it held (after a lost one the polygon has
         // changed too much for its lines to be worth a try).
-        let hints = if held { successors(vertices) } else { [[NO_LINE; 2]; M] };
-        match self.walk_from(start, vertices, &hints) {
+        match self.walk_from(start, vertices, held) {
             Some((robust_pair, hinted, sums)) => {
                 self.finish(vertices, Some(sums), Some(robust_pair), held, hinted)
             }
@@ -73,8 +73,9 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// the smallest step (Eq. 19) and, among lines reached at the same point,
     /// the edge-supporting one (Sect. 2.3).
     ///
-    /// A step first tries the line `hints` gives for the edge (its successor
-    /// in the previous cycle's polygon): it is taken when
+    /// With `hints`, a step first tries the line the list's successors give
+    /// for the edge (its successor in the last walk's polygon, read before
+    /// this walk records its own): it is taken when
     /// [`Self::hinted_step`] proves that the full step would take it, by one
     /// dot product per cable at the new vertex instead of two, a division
     /// and the search for the smallest step; the vertices are the same, bit
@@ -83,7 +84,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         &self,
         start: Vertex<T>,
         vertices: &mut VertexList<T, M>,
-        hints: &[[u8; 2]; M],
+        hints: bool,
     ) -> Option<(ActivePair, usize, Shoelace<T>)> {
         vertices.clear();
         vertices.push(start).ok()?;
@@ -175,8 +176,8 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let hc = h / 2;
             let o = self.unit_normal(h);
             let d = Vector2::new(-o.y, o.x);
-            let hinted = hints[hc][h % 2] as usize;
-            let tried = if hints_trusted && hinted < 2 * M {
+            let hinted = vertices.successor(h);
+            let tried = if hints && hints_trusted && hinted < 2 * M {
                 let step = self.hinted_step(h, hinted, &v, &d, big);
                 // One wrong hint and the rest of the walk takes full steps:
                 // a polygon whose lines changed costs at most one test more.
@@ -195,6 +196,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                     }
                 }
                 hinted_steps += 1;
+                vertices.set_successor(h, hinted);
                 if hinted == first_edge {
                     return Some((pair_of(best_lines), hinted_steps, sums));
                 }
@@ -338,6 +340,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 next = Some(first_edge);
             }
             let g = next?;
+            vertices.set_successor(h, g);
             if g == first_edge {
                 return Some((pair_of(best_lines), hinted_steps, sums));
             }
@@ -544,38 +547,4 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 #[inline]
 fn pc_line(prev: Option<usize>) -> u8 {
     prev.map_or(0, |p| p as u8)
-}
-
-/// No successor known (a hint of none).
-const NO_LINE: u8 = u8::MAX;
-
-/// Each line's successor along the boundary of the polygon in `vertices`
-/// (as the walk leaves them: vertex `i > 0` on lines `(edge in, edge out)`,
-/// the first on the closing edge and the first edge), `[cable][side]`;
-/// [`NO_LINE`] where none. Only hints: [`FeasiblePolygon::hinted_step`]
-/// checks each, so any list (the brute force's, another robot's) is safe.
-fn successors<T: Real, const M: usize>(vertices: &VertexList<T, M>) -> [[u8; 2]; M] {
-    let mut next = [[NO_LINE; 2]; M];
-    let n = vertices.len();
-    if n < 2 {
-        return next;
-    }
-    let mut put = |from: u8, to: u8| {
-        let h = from as usize;
-        if h < 2 * M {
-            next[h / 2][h % 2] = to;
-        }
-    };
-    for i in 1..n {
-        let (from, to) = vertices.get(i).lines;
-        put(from, to);
-    }
-    let last = vertices.get(n - 1).lines.1;
-    let (s0, s1) = vertices.get(0).lines;
-    if last == s0 {
-        put(last, s1);
-    } else if last == s1 {
-        put(last, s0);
-    }
-    next
 }
