@@ -127,9 +127,9 @@ pub const RECEIVE_BUDGET: usize = 256;
 /// the bytes arrive, the control step checks and decodes them). Two
 /// setpoint frames are 170 bytes, nearly four times what 460 800 baud
 /// carries in a millisecond (46 bytes), so a stream drains faster than the
-/// line fills it; a burst (the stream's first points, or frames QEMU holds back and
-/// delivers at once) waits in the interrupt's frame queue and is taken
-/// two a cycle. Only a sustained flood of frames shorter than 23 bytes
+/// line fills it; a burst (the stream's first points, or frames QEMU
+/// holds back and delivers at once) waits in the interrupt's frame queue
+/// and is taken two a cycle. Only a sustained flood of frames shorter than 23 bytes
 /// (commands) outruns it, and what then finds the queue full is dropped
 /// and counted. Two rather than more bounds the step's receive work at
 /// about 1 150 instructions on the board (issue 17).

@@ -409,13 +409,13 @@ fn compare(
 /// The regression ceiling of the product's worst streamed step on the
 /// default robot (telemetry's `step_cost`: at most two setpoint frames
 /// decoded in it, `cdpr_control::FRAME_BUDGET`): measured 13 936 to 14 053
-/// over five runs, QEMU stopped 200 ms every 400 ms in two of them (issue
+/// over six runs, QEMU stopped 200 ms every 400 ms in two of them (issue
 /// 17, session 19; 15 150 to 15 246 with four frames a cycle).
 const PRODUCT_CEILING: u32 = 15_000;
 
 /// The ceiling of the product's worst streamed step for `robot`:
 /// [`PRODUCT_CEILING`] for the default robot, the budget for others
-/// (ipanema1 measured 16 603 to 16 672).
+/// (ipanema1 measured 16 533 to 16 672).
 fn product_ceiling(robot: &Path) -> u32 {
     if crate::firmware::is_default_robot(robot) {
         PRODUCT_CEILING
