@@ -129,10 +129,10 @@ pub const RECEIVE_BUDGET: usize = 256;
 /// carries in a millisecond (46 bytes), so a stream drains faster than the
 /// line fills it; a burst (the stream's first points, or frames QEMU
 /// holds back and delivers at once) waits in the interrupt's frame queue
-/// and is taken two a cycle. Only a sustained flood of frames shorter than 23 bytes
-/// (commands) outruns it, and what then finds the queue full is dropped
-/// and counted. Two rather than more bounds the step's receive work at
-/// about 1 150 instructions on the board (issue 17).
+/// and is taken two a cycle. Only a sustained flood of frames shorter than
+/// 23 bytes (commands) outruns it, and what then finds the queue full is
+/// dropped and counted. Two rather than more bounds the step's receive
+/// work at about 1 160 instructions on the board (issue 17).
 pub const FRAME_BUDGET: usize = 2;
 
 /// Where [`ControlLoop::receive_frames`] takes reassembled frames from:
