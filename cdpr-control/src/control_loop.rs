@@ -234,6 +234,26 @@ pub struct StepReport {
     pub drive_fault: Option<DriveFault>,
 }
 
+impl Default for StepReport {
+    /// A report of no cycle (what [`ControlLoop::step_into`] overwrites).
+    fn default() -> Self {
+        Self {
+            cycle: 0,
+            solved: None,
+            state: State::Disabled,
+            reason: Reason::None,
+            torques: [0.0; CABLES],
+            brakes: true,
+            telemetry: None,
+            estimate: None,
+            feedback: Wrench::zeros(),
+            offsets: [0.0; CABLES],
+            unreadable_drive: None,
+            drive_fault: None,
+        }
+    }
+}
+
 /// The per-cycle logic with its state.
 pub struct ControlLoop {
     controller: Controller,
@@ -676,7 +696,21 @@ impl ControlLoop {
         self.worst_cost = self.worst_cost.max(cost);
     }
 
-    /// One control cycle: reads the drives (counts -> lengths), carries out
+    /// [`ControlLoop::step_into`] returning the report: one control cycle.
+    pub fn step<C: TickCounter, D: WinchDrives>(
+        &mut self,
+        clock: &C,
+        drives: &mut D,
+        overrun: bool,
+    ) -> StepReport {
+        let mut report = StepReport::default();
+        self.step_into(clock, drives, overrun, &mut report);
+        report
+    }
+
+    /// One control cycle into `report` (every field written; the firmware
+    /// keeps one report in place rather than copying 484 bytes a cycle
+    /// out of a returned value): reads the drives (counts -> lengths), carries out
     /// a pending `Home`, checks the lengths against the last feasible
     /// setpoint's, solves the newest setpoint with the selected feedback
     /// (pose estimate -> task-space wrench or joint-space tension changes),
@@ -693,12 +727,13 @@ impl ControlLoop {
     ///   (`Reason::Estimator`, the last feasible torques held, feedback
     ///   off), a fault if it lasts `hold_cycles`; in Disabled it refuses
     ///   Enable.
-    pub fn step<C: TickCounter, D: WinchDrives>(
+    pub fn step_into<C: TickCounter, D: WinchDrives>(
         &mut self,
         clock: &C,
         drives: &mut D,
         overrun: bool,
-    ) -> StepReport {
+        report: &mut StepReport,
+    ) {
         let now = self.cycle;
         let state_before = self.supervisor.state();
         // The fraction of the task-space feedback this cycle's solve carries.
@@ -767,8 +802,8 @@ impl ControlLoop {
             Some(_) => self.newest = Newest::Bad,
             None => {}
         }
-        let mut solved = None;
-        let mut estimate = None;
+        report.solved = None;
+        report.estimate = None;
         let mut feedback = Wrench::zeros();
         let mut offsets = [0.0; CABLES];
         // By reference: the setpoint (about 90 bytes) is copied only where
@@ -801,13 +836,13 @@ impl ControlLoop {
                         if let Some((lengths, _)) = &measured {
                             let factorization = self.controller.factorization(&prepared);
                             let reference = Reference::of_setpoint(&setpoint.pose, k, factorization);
-                            self.estimator.about_into(reference, lengths, &mut estimate);
+                            self.estimator.about_into(reference, lengths, &mut report.estimate);
                         }
                         let t2 = clock.ticks();
                         ticks.estimator = t2.wrapping_sub(t_estimate);
                         let age = now.wrapping_sub(arrived) as f32 * self.estimator.settings().period_s;
                         let dt = self.estimator.settings().period_s;
-                        let joint = match (self.scheme, &measured, &estimate) {
+                        let joint = match (self.scheme, &measured, &report.estimate) {
                             (Scheme::TaskSpace, _, Some(Ok(est))) => {
                                 // The integral is frozen while the
                                 // feedback is backed off (anti-windup).
@@ -852,7 +887,7 @@ impl ControlLoop {
                     }
                 };
                 let cycle = Cycle { result: result.map(|(c, _)| c), ticks };
-                solved = Some(cycle);
+                report.solved = Some(cycle);
                 // The feedback, not the setpoint, left the feasible set.
                 let feedback_infeasible =
                     matches!(result, Err(Error::Infeasible)) && feedback.iter().any(|f| *f != 0.0);
@@ -881,7 +916,7 @@ impl ControlLoop {
                         // The setpoint is feasible whatever the estimate:
                         // the length check and the stand-in plant follow it.
                         self.feasible_lengths = Some(lengths);
-                        if matches!(estimate, Some(Err(_))) {
+                        if matches!(report.estimate, Some(Err(_))) {
                             SetpointStatus::Unobservable
                         } else {
                             SetpointStatus::Feasible(c.torques)
@@ -898,12 +933,12 @@ impl ControlLoop {
         };
         // No setpoint solved: the estimate from the last one (plain
         // Gauss-Newton; the solver did not run, so its time is free).
-        if estimate.is_none() {
+        if report.estimate.is_none() {
             if let Some((lengths, _)) = &measured {
                 let t = clock.ticks();
-                estimate = Some(self.estimator.from_last(self.controller.robot(), lengths));
+                report.estimate = Some(self.estimator.from_last(self.controller.robot(), lengths));
                 ticks.estimator = clock.since(t);
-                if let Some(c) = &mut solved {
+                if let Some(c) = &mut report.solved {
                     c.ticks.estimator = ticks.estimator;
                 }
             }
@@ -911,7 +946,7 @@ impl ControlLoop {
         // Lengths that fit no pose (a broken, slack or slipping cable, an
         // encoder that stopped, a wrong homing once the platform moves):
         // Fault at once, unlike the estimator's other failures.
-        if matches!(estimate, Some(Err(EstimateError::Residual)))
+        if matches!(report.estimate, Some(Err(EstimateError::Residual)))
             && matches!(self.supervisor.state(), State::Enabled | State::Holding)
             && self.supervisor.fault(now, Reason::Estimator)
         {
@@ -971,9 +1006,9 @@ impl ControlLoop {
         // Setpoints drive the winches only in Enabled and Holding: only
         // then do the order and jump checks apply (`crate::link`).
         self.link.bind(matches!(state, State::Enabled | State::Holding));
-        let telemetry = (self.telemetry_period != 0 && now.is_multiple_of(u32::from(self.telemetry_period)))
-            .then(|| {
-                let ok = solved.and_then(|c| c.result.ok());
+        report.telemetry =
+            (self.telemetry_period != 0 && now.is_multiple_of(u32::from(self.telemetry_period))).then(|| {
+                let ok = report.solved.and_then(|c| c.result.ok());
                 let limited = ok.map_or(Saturation::NONE, |c| c.limited);
                 Telemetry {
                     cycle: now,
@@ -989,7 +1024,7 @@ impl ControlLoop {
                     counters: self.counters,
                     method: self.controller.method().wire_id(),
                     estimate: self.estimator.last().map_or([0.0; 6], |p| (*p).into()),
-                    residual: match &estimate {
+                    residual: match &report.estimate {
                         Some(Ok(e)) => e.residual,
                         _ => f32::NAN,
                     },
@@ -1012,20 +1047,15 @@ impl ControlLoop {
                 }
             });
         self.cycle = self.cycle.wrapping_add(1);
-        StepReport {
-            cycle: now,
-            solved,
-            state,
-            reason,
-            torques: output.torques,
-            brakes: output.brakes,
-            telemetry,
-            estimate,
-            feedback,
-            offsets,
-            unreadable_drive,
-            drive_fault: self.drive_fault,
-        }
+        report.cycle = now;
+        report.state = state;
+        report.reason = reason;
+        report.torques = output.torques;
+        report.brakes = output.brakes;
+        report.feedback = feedback;
+        report.offsets = offsets;
+        report.unreadable_drive = unreadable_drive;
+        report.drive_fault = self.drive_fault;
     }
 
     /// Whether a measured cable length is more than the tracking limit off

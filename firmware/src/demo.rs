@@ -361,6 +361,8 @@ async fn realtime_loop(
     let mut previous_ok = true;
     let mut frame = [0u8; cdpr_control::protocol::MAX_FRAME];
     let mut decoder = cdpr_control::protocol::FrameDecoder::new();
+    // Written in place by every step, as the product's.
+    let mut report = StepReport::default();
 
     let mut releases = Releases::start().await;
     let mut last_start = clock.ticks();
@@ -397,7 +399,7 @@ async fn realtime_loop(
             control.receive(HostMessage::Enable);
         }
         let t_setpoint = clock.ticks();
-        let report = control.step(clock, drives, overrun);
+        control.step_into(clock, drives, overrun, &mut report);
         let end = clock.ticks();
         let ticks = end.wrapping_sub(start);
         control.record_cost(units(ticks));

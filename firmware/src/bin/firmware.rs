@@ -136,6 +136,8 @@ mod app {
             "the receive interrupt's entry and exit: {=u32} instructions (taken out of each step with its body)",
             clock::ticks_to_units(entry_exit)
         );
+        // Written in place by every step (484 bytes: not copied out).
+        let mut report = cdpr_control::StepReport::default();
         let mut releases = Releases::start().await;
         loop {
             let start = clock.ticks();
@@ -153,7 +155,7 @@ mod app {
                     let _ = drives.place_stand_in(control.controller().robot(), &pose);
                 }
             }
-            let report = control.step(&*clock, drives, overrun);
+            control.step_into(&*clock, drives, overrun, &mut report);
             // The step's own work: the receive interrupt's time within it
             // (bodies, entries and exits) is left out (bounded apart, see
             // `serial`).
@@ -171,8 +173,8 @@ mod app {
                     queued |= !identify;
                 }
             }
-            if let Some(telemetry) = report.telemetry {
-                if let Ok(n) = encode(&DeviceMessage::Telemetry(telemetry), &mut frame) {
+            if let Some(telemetry) = &report.telemetry {
+                if let Ok(n) = encode(&DeviceMessage::Telemetry(*telemetry), &mut frame) {
                     queued |= serial::queue_frame(tx, &frame[..n]);
                 }
             }
