@@ -1006,8 +1006,11 @@ impl ControlLoop {
         // Setpoints drive the winches only in Enabled and Holding: only
         // then do the order and jump checks apply (`crate::link`).
         self.link.bind(matches!(state, State::Enabled | State::Holding));
-        report.telemetry =
-            (self.telemetry_period != 0 && now.is_multiple_of(u32::from(self.telemetry_period))).then(|| {
+        // Built in place when due (a cycle without telemetry writes only
+        // `None`).
+        report.telemetry = None;
+        if self.telemetry_period != 0 && now.is_multiple_of(u32::from(self.telemetry_period)) {
+            report.telemetry = Some({
                 let ok = report.solved.and_then(|c| c.result.ok());
                 let limited = ok.map_or(Saturation::NONE, |c| c.limited);
                 Telemetry {
@@ -1046,6 +1049,7 @@ impl ControlLoop {
                     drive_fault: self.drive_fault,
                 }
             });
+        }
         self.cycle = self.cycle.wrapping_add(1);
         report.cycle = now;
         report.state = state;
