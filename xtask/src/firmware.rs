@@ -46,9 +46,10 @@ const DEMO: &str = "demo";
 /// instead of twice; 15,102 since the factorisation works on its columns as
 /// arrays and checks what it keeps; 14,570 since the walk skips its search
 /// among concurrent lines when no line ties and the estimator shares the
-/// solver's factorisation), below the [`BUDGET`]. Other robots' steps are
-/// held to the budget.
-const REGRESSION_CEILING: u32 = 14_800;
+/// solver's factorisation; 14,343 since the step writes its report and its
+/// telemetry in place, session 20), below the [`BUDGET`]. Other robots'
+/// steps are held to the budget.
+const REGRESSION_CEILING: u32 = 14_500;
 
 /// The regression ceiling of the step's receive share under the demo's
 /// receive flood: a cycle's `cdpr_control::FRAME_BUDGET` (2) of
@@ -636,8 +637,8 @@ mod tests {
         Report {
             instructions: true,
             cycles: 4000,
-            step: Spread { min: 10_516, median: 11_406, max: 14_570 },
-            solver: Spread { min: 6_050, median: 6_709, max: 9_915 },
+            step: Spread { min: 10_223, median: 10_880, max: 14_343 },
+            solver: Spread { min: 6_151, median: 6_230, max: 9_946 },
             overruns: 0,
             calibration_ticks: 160_000,
             calibration_expected: 160_000,
