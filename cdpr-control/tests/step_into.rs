@@ -128,6 +128,9 @@ fn every_field_of_the_report_is_written_each_cycle() {
             states.push(expected.state);
         }
     }
+    eprintln!(
+        "400 cycles compared: telemetry {with_telemetry} / none {without_telemetry}, solved {solved} / not {unsolved}, estimated {estimated}, states {states:?}"
+    );
     // The comparisons covered both sides of every optional field.
     assert!(with_telemetry > 100 && without_telemetry > 200, "{with_telemetry} {without_telemetry}");
     assert!(solved >= 250 && unsolved >= 50, "{solved} {unsolved}");
