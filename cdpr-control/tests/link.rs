@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::low;
+
 use common::IdealDrives;
 
 use cdpr_control::protocol::{encode, HostMessage, Reason, Rejection, Setpoint, State, MAX_FRAME};
@@ -15,18 +17,9 @@ use tension_core::Method;
 
 const LIMITS: SafetyLimits = SafetyLimits::DEFAULT;
 
-/// At rest low in the middle (feasible).
-fn low(seq: u32) -> Setpoint {
-    Setpoint { seq, pose: [0.0, 0.0, 1.82, 0.0, 0.0, 0.0], velocity: [0.0; 6], acceleration: [0.0; 6] }
-}
-
-/// Cycle `k` of a straight line at 1 m/s in x from the low pose (the
-/// step from rest to 1 m/s is a constant acceleration in between).
+/// Cycle `k` of a straight line at 1 m/s in x from the low pose.
 fn moving(seq: u32, k: u32) -> Setpoint {
-    let mut s = low(seq);
-    s.pose[0] = 0.001 * k as f32;
-    s.velocity[0] = 1.0;
-    s
+    common::moving_x(seq, k, 1.0)
 }
 
 fn bytes(message: &HostMessage) -> Vec<u8> {

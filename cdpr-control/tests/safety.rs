@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::low;
+
 use cdpr_control::drives::WinchDrives;
 use cdpr_control::link::SetpointRange;
 use cdpr_control::protocol::{encode, HostMessage, Reason, Setpoint, State, MAX_FRAME};
@@ -46,11 +48,6 @@ impl WinchDrives for Recorder {
         *readings = self.readings;
         Ok(())
     }
-}
-
-/// A feasible pose of suspended-8 (low in the middle, as the demo starts).
-fn low(seq: u32) -> Setpoint {
-    Setpoint { seq, pose: [0.0, 0.0, 1.82, 0.0, 0.0, 0.0], velocity: [0.0; 6], acceleration: [0.0; 6] }
 }
 
 /// In range, but near the anchors' height: no tensions within the limits.

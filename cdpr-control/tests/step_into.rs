@@ -7,37 +7,17 @@
 
 mod common;
 
-use common::IdealDrives;
+use common::{low, moving_x, IdealDrives};
 
 use cdpr_control::estimator::EstimateError;
-use cdpr_control::protocol::{DriveFault, DriveFaultCause, HostMessage, Reason, Setpoint, State};
-use cdpr_control::supervisor::SafetyLimits;
+use cdpr_control::protocol::{DriveFault, DriveFaultCause, HostMessage, Reason, State};
 use cdpr_control::{ControlLoop, NoClock, StepReport};
-use tension_core::Method;
-
-fn at_rest(seq: u32) -> Setpoint {
-    Setpoint { seq, pose: [0.0, 0.0, 1.82, 0.0, 0.0, 0.0], velocity: [0.0; 6], acceleration: [0.0; 6] }
-}
-
-/// Cycle `k` of a line at 0.2 m/s in x from the rest pose.
-fn moving(seq: u32, k: u32) -> Setpoint {
-    let mut s = at_rest(seq);
-    s.pose[0] = 0.0002 * k as f32;
-    s.velocity[0] = 0.2;
-    s
-}
 
 fn rig() -> (ControlLoop, IdealDrives) {
-    let mut control = ControlLoop::new(
-        common::suspended8(),
-        Method::Barycenter,
-        common::setpoint_range(),
-        SafetyLimits::DEFAULT,
-    )
-    .unwrap();
+    let mut control = common::control_loop();
     control.set_tracking_limit(None);
-    let mut drives = IdealDrives { readings: common::readings_at(&control, at_rest(0).pose) };
-    common::home(&mut control, &mut drives, at_rest(0).pose);
+    let mut drives = IdealDrives { readings: common::readings_at(&control, low(0).pose) };
+    common::home(&mut control, &mut drives, low(0).pose);
     (control, drives)
 }
 
@@ -73,7 +53,7 @@ fn every_field_of_the_report_is_written_each_cycle() {
     let template = {
         let (mut c, mut d) = rig();
         c.receive(HostMessage::TelemetryPeriod(1));
-        c.receive(HostMessage::Setpoint(at_rest(1)));
+        c.receive(HostMessage::Setpoint(low(1)));
         c.receive(HostMessage::Enable);
         common::follow(&c, &mut d.readings);
         c.step(&NoClock, &mut d, false)
@@ -94,7 +74,7 @@ fn every_field_of_the_report_is_written_each_cycle() {
         }
         if k < 250 {
             seq += 1;
-            messages.push(HostMessage::Setpoint(if k < 50 { at_rest(seq) } else { moving(seq, k - 50) }));
+            messages.push(HostMessage::Setpoint(if k < 50 { low(seq) } else { moving_x(seq, k - 50, 0.2) }));
         }
         if k == 10 {
             messages.push(HostMessage::Enable);

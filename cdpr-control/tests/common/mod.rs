@@ -109,3 +109,25 @@ impl cdpr_control::WinchDrives for IdealDrives {
         Ok(())
     }
 }
+
+/// A feasible pose of suspended-8 at rest (low in the middle, as the demo
+/// starts), setpoint `seq`.
+#[allow(dead_code)]
+pub fn low(seq: u32) -> cdpr_control::protocol::Setpoint {
+    cdpr_control::protocol::Setpoint {
+        seq,
+        pose: [0.0, 0.0, 1.82, 0.0, 0.0, 0.0],
+        velocity: [0.0; 6],
+        acceleration: [0.0; 6],
+    }
+}
+
+/// Cycle `k` of a straight line at `speed` m/s in x from [`low`] (the
+/// step from rest to the speed is a constant acceleration in between).
+#[allow(dead_code)]
+pub fn moving_x(seq: u32, k: u32, speed: f32) -> cdpr_control::protocol::Setpoint {
+    let mut s = low(seq);
+    s.pose[0] = speed * 0.001 * k as f32;
+    s.velocity[0] = speed;
+    s
+}
