@@ -5,9 +5,7 @@
 
 mod common;
 
-use common::low;
-
-use common::IdealDrives;
+use common::{low, IdealDrives};
 
 use cdpr_control::protocol::{encode, HostMessage, Reason, Rejection, Setpoint, State, MAX_FRAME};
 use cdpr_control::protocol::{FrameDecoder, LineFrame};
