@@ -170,6 +170,24 @@ fn limit(v: Vector3<f32>, max: f32) -> Vector3<f32> {
     }
 }
 
+/// Whether `max` bounds a magnitude: zero or more (NaN is not).
+fn is_bound(max: f32) -> bool {
+    max >= 0.0
+}
+
+/// `v` within `+-max` for a bound `max >= 0` (the callers check it; NaN
+/// `v` stays NaN): comparisons, where `f32::clamp` asserts its bounds'
+/// order.
+fn within(v: f32, max: f32) -> f32 {
+    if v > max {
+        max
+    } else if v < -max {
+        -max
+    } else {
+        v
+    }
+}
+
 /// The loop delay the task-space PID predicts over, with the rigid body
 /// the prediction uses (`TaskPid::update_error`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -299,6 +317,9 @@ impl TaskPid {
     /// kinematics. `scale` is the fraction of the force and of the moment
     /// carried (the back-off; each part's integral advances only at 1);
     /// `prediction` the delay the errors are predicted over first.
+    /// Errors: [`Error::NonFinite`] for a non-finite input,
+    /// [`Error::InvalidLimits`] when a bound of [`FeedbackLimits`] is NaN or
+    /// below zero.
     #[allow(clippy::too_many_arguments)]
     pub fn update_error(
         &mut self,
@@ -313,6 +334,13 @@ impl TaskPid {
         if !error.iter().chain(rates.iter()).chain(rc.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
             return Err(Error::NonFinite);
         }
+        // A bound that is NaN or below zero bounds nothing: no wrench
+        // (`f32::clamp` would panic on it, `limit` would pass or flip the
+        // wrench).
+        let l = &self.limits;
+        if !l.integral_max.iter().chain([&l.force_max, &l.moment_max]).all(|m| is_bound(*m)) {
+            return Err(Error::InvalidLimits);
+        }
         let accel: [f32; 6] = core::array::from_fn(|k| self.output[k] * prediction.inv_mass[k]);
         let (e, rates) = predict(error, rates, &accel, prediction.delay_s);
         let g = &self.gains;
@@ -320,7 +348,7 @@ impl TaskPid {
         for k in 0..6 {
             if integrate && scale[k / 3] >= 1.0 {
                 let max = self.limits.integral_max[k];
-                self.integral[k] = (self.integral[k] + g.ki[k] * e[k] * dt).clamp(-max, max);
+                self.integral[k] = within(self.integral[k] + g.ki[k] * e[k] * dt, max);
             }
             out[k] = g.kp[k] * e[k] + g.kd[k] * rates[k] + self.integral[k];
         }
@@ -471,6 +499,8 @@ impl JointPid {
     /// Per cable, the tension change (N) for measured `lengths` and
     /// `rates` against the desired `lengths_d`, `rates_d` (m, m/s; positive
     /// rates pay out); with `integrate` the integral advances by `dt`.
+    /// Errors: [`Error::InvalidLimits`] when the gains' `integral_max` is
+    /// NaN or below zero, [`Error::NonFinite`] for a non-finite error.
     pub fn update(
         &mut self,
         lengths: &[f32; CABLES],
@@ -481,6 +511,10 @@ impl JointPid {
         integrate: bool,
     ) -> Result<[f32; CABLES], Error> {
         let g = &self.gains;
+        // NaN or below zero bounds nothing (`f32::clamp` would panic).
+        if !is_bound(g.integral_max) {
+            return Err(Error::InvalidLimits);
+        }
         let mut out = [0.0; CABLES];
         for i in 0..CABLES {
             let e = lengths[i] - lengths_d[i];
@@ -490,7 +524,7 @@ impl JointPid {
             }
             if integrate {
                 let max = g.integral_max;
-                self.integral[i] = (self.integral[i] + g.ki * e * dt).clamp(-max, max);
+                self.integral[i] = within(self.integral[i] + g.ki * e * dt, max);
             }
             out[i] = g.kp * e + g.kd * de + self.integral[i];
         }

@@ -87,3 +87,116 @@ fn lengths_off_the_setpoint_fault_only_when_enabled() {
     assert_eq!(control.step(&NoClock, &mut null, false).state, State::Fault);
     assert_eq!(control.counters().faults, 1);
 }
+
+/// Bounds a configuration may carry: valid (zero, either sign of it,
+/// finite, infinite) and invalid (NaN, below zero).
+const BOUNDS: [f32; 9] = [0.0, -0.0, 1e-30, 0.5, 20.0, f32::MAX, f32::INFINITY, f32::NAN, -1.0];
+
+fn valid(bound: f32) -> bool {
+    // The rule, stated apart from the code: a bound admits `|x| <= bound`,
+    // which some `x` satisfies exactly when the bound is zero or more.
+    !bound.is_nan() && bound.is_sign_positive() || bound == 0.0
+}
+
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+
+/// Task-space cases that ended in `InvalidLimits` / were bounded.
+static TASK_REFUSED: AtomicUsize = AtomicUsize::new(0);
+static TASK_BOUNDED: AtomicUsize = AtomicUsize::new(0);
+
+/// Hostile bounds never panic the task-space PID (`f32::clamp` did on a
+/// NaN or negative integral bound) and never pass or flip the wrench: an
+/// invalid bound is `InvalidLimits`; valid ones bound the force, the
+/// moment (about the centre of mass) and each integral. Counts both
+/// outcomes (each case runs 1-40 cycles).
+#[test]
+fn task_pid_bounds_are_checked_never_trusted() {
+    use cdpr_control::feedback::{FeedbackLimits, Gains, Prediction, TaskPid};
+    use proptest::prelude::*;
+    let strategy = (
+        proptest::array::uniform8(0usize..BOUNDS.len()),
+        proptest::array::uniform6(-2.0f32..2.0),
+        proptest::array::uniform6(-5.0f32..5.0),
+        1usize..40,
+    );
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig::with_cases(512));
+    let result = runner.run(&strategy, |(picks, error, rates, cycles)| {
+        let bound = picks.map(|i| BOUNDS[i]);
+        let limits = FeedbackLimits {
+            force_max: bound[0],
+            moment_max: bound[1],
+            integral_max: [bound[2], bound[3], bound[4], bound[5], bound[6], bound[7]],
+        };
+        let gains = Gains { kp: [400.0; 6], kd: [40.0; 6], ki: [4000.0; 6] };
+        let mut pid = TaskPid::new(gains, limits);
+        let rc = tension_core::nalgebra::Vector3::new(0.01, -0.02, 0.03);
+        let all_valid = bound.iter().all(|b| valid(*b));
+        for _ in 0..cycles {
+            match pid.update_error(&error, &rates, &rc, 1e-3, true, [1.0; 2], &Prediction::NONE) {
+                Err(e) => {
+                    prop_assert!(!all_valid && e == tension_core::Error::InvalidLimits, "{e:?} {bound:?}");
+                    TASK_REFUSED.fetch_add(1, Relaxed);
+                }
+                Ok(w) => {
+                    prop_assert!(all_valid, "{bound:?}");
+                    let force = tension_core::nalgebra::Vector3::new(w[0], w[1], w[2]);
+                    // The moment about the centre of mass: less `rc x F`.
+                    let moment = tension_core::nalgebra::Vector3::new(w[3], w[4], w[5]) - rc.cross(&force);
+                    let slack = |b: f32| b * (1.0 + 1e-5) + 1e-6;
+                    prop_assert!(force.norm() <= slack(bound[0]), "{force:?} {bound:?}");
+                    prop_assert!(moment.norm() <= slack(bound[1]), "{moment:?} {bound:?}");
+                    for k in 0..6 {
+                        prop_assert!(
+                            pid.integral()[k].abs() <= limits.integral_max[k],
+                            "{k} {:?}",
+                            pid.integral()
+                        );
+                    }
+                    TASK_BOUNDED.fetch_add(1, Relaxed);
+                }
+            }
+        }
+        Ok(())
+    });
+    assert!(result.is_ok(), "{result:?}");
+    let (refused, bounded) = (TASK_REFUSED.load(Relaxed), TASK_BOUNDED.load(Relaxed));
+    eprintln!("task-space PID: {refused} cycles refused (InvalidLimits), {bounded} bounded");
+    assert!(refused > 1_000 && bounded > 1_000, "{refused} {bounded}");
+}
+
+/// The same for the joint-space PID's integral bound: every bound of
+/// [`BOUNDS`] with random length errors, each over 1-40 cycles.
+#[test]
+fn joint_pid_bound_is_checked_never_trusted() {
+    use cdpr_control::feedback::{JointGains, JointPid};
+    let (mut refused, mut bounded) = (0, 0);
+    let mut x = 0x2545_F491_u32;
+    for &bound in &BOUNDS {
+        for case in 0..64 {
+            let errors: [f32; 8] = core::array::from_fn(|_| {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                (x as f32 / u32::MAX as f32 - 0.5) * 0.2
+            });
+            let mut pid = JointPid::new(JointGains { kp: 1e3, kd: 50.0, ki: 1e4, integral_max: bound });
+            let lengths_d = [2.0f32; 8];
+            let lengths: [f32; 8] = core::array::from_fn(|i| lengths_d[i] + errors[i]);
+            for _ in 0..=case % 40 {
+                match pid.update(&lengths, &[0.0; 8], &lengths_d, &[0.0; 8], 1e-3, true) {
+                    Err(e) => {
+                        assert!(!valid(bound) && e == tension_core::Error::InvalidLimits, "{e:?} {bound}");
+                        refused += 1;
+                    }
+                    Ok(_) => {
+                        assert!(valid(bound), "{bound}");
+                        assert!(pid.integral().iter().all(|i| i.abs() <= bound), "{:?}", pid.integral());
+                        bounded += 1;
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("joint-space PID: {refused} cycles refused (InvalidLimits), {bounded} bounded");
+    assert!(refused > 500 && bounded > 2_000, "{refused} {bounded}");
+}
