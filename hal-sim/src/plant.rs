@@ -368,7 +368,15 @@ impl Plant {
     /// The torque drive `i` can deliver at time `t`, N m.
     fn torque_limit(&self, i: usize, t: f64) -> f64 {
         match self.faults.derate {
-            Some(d) if d.cable == i && t >= d.at => d.torque.min(self.winch.torque_max),
+            // A derate to a NaN or negative torque delivers nothing
+            // (`f64::min` would drop a NaN and deliver the full torque).
+            Some(d) if d.cable == i && t >= d.at => {
+                if d.torque >= 0.0 {
+                    d.torque.min(self.winch.torque_max)
+                } else {
+                    0.0
+                }
+            }
             _ => self.winch.torque_max,
         }
     }
@@ -447,8 +455,21 @@ impl Plant {
         let (radius, gear, eta) = (self.winch.drum_radius, self.winch.gear_ratio, self.winch.efficiency);
         let mass_eq = self.model.motor_inertia * gear * gear / (radius * radius);
         for (i, &tension) in tensions.iter().enumerate() {
+            // A limit that is NaN or below zero delivers nothing (no
+            // `f64::clamp`: it panics on such bounds).
             let limit = self.torque_limit(i, t);
-            let target = self.command[i].clamp(-limit, limit);
+            let command = self.command[i];
+            let target = if limit >= 0.0 {
+                if command > limit {
+                    limit
+                } else if command < -limit {
+                    -limit
+                } else {
+                    command
+                }
+            } else {
+                0.0
+            };
             out.torque[i] = (target - s.torque[i]) / self.model.current_time_constant;
             if self.locked {
                 out.len[i] = 0.0;

@@ -426,3 +426,38 @@ fn wrong_homing_is_caught_once_the_platform_moves() {
         }
     }
 }
+
+/// A derated drive whose torque limit is NaN or negative (a hostile
+/// fault description) delivers nothing, as one derated to 0 N m: the run
+/// completes (the plant's `f64::clamp` panicked on a negative limit, and
+/// `f64::min` made a NaN one the full torque) with the same rows, the same
+/// fault and the same telemetry (but its step cost) as that run.
+#[test]
+fn a_derate_to_a_nan_or_negative_torque_delivers_nothing() {
+    let derated = |torque: f64| {
+        let mut s = scenario("winch-saturation");
+        let derate = s.faults.derate.as_mut().expect("winch-saturation derates a drive");
+        derate.torque = torque;
+        run(&s, &Config::standard()).unwrap()
+    };
+    let nothing = derated(0.0);
+    let f = figures(&nothing, 0.0);
+    report("derate to 0 N m", &f);
+    let fault = f.fault_at.expect("a winch that delivers nothing faults");
+    assert!(nothing.rows.iter().filter(|r| r.t >= fault + 0.021).all(|r| r.brakes));
+    for torque in [f64::NAN, -1.0, f64::NEG_INFINITY] {
+        let o = derated(torque);
+        assert_eq!(o.rows.len(), nothing.rows.len(), "{torque}");
+        assert_eq!(format!("{:?}", o.rows), format!("{:?}", nothing.rows), "{torque}");
+        // The telemetry but for its step cost (the host's clock).
+        let timeless = |t: &[cdpr_control::protocol::Telemetry]| {
+            format!(
+                "{:?}",
+                t.iter()
+                    .map(|t| cdpr_control::protocol::Telemetry { step_cost: 0, ..*t })
+                    .collect::<Vec<_>>()
+            )
+        };
+        assert_eq!(timeless(&o.telemetry), timeless(&nothing.telemetry), "{torque}");
+    }
+}
