@@ -1,16 +1,14 @@
 //! The walk's hinted steps (`FeasiblePolygon::walk_into` tries, at each
 //! edge, the line that followed it in the polygon its list's last walk
-//! found, and
-//! takes it only when that is provably what the full step of Lamaury &
-//! Gouttefarde 2013, Eqs. 16-21, would choose) change nothing: the same
-//! vertices, lines, error bounds, centroid and warm-start pair, bit for bit,
-//! as the walk with an empty list (no hint: every step a full one), whose
-//! centroid (summed as the walk goes) is the list's by the shoelace
-//! formulas taken afterwards, along
-//! the shipped robots' paths, across jumps, at polygons shifted towards the
-//! feasibility border, and with hints from an unrelated polygon. Each check
-//! counts the steps that took a hint, so that the comparison is known to
-//! have reached them.
+//! found, and takes it only when that is provably what the full step of
+//! Lamaury & Gouttefarde 2013, Eqs. 16-21, would choose) change nothing:
+//! the same vertices, lines, error bounds, centroid and warm-start pair, bit
+//! for bit, as the walk with an empty list (no hint: every step a full
+//! one), whose centroid (summed as the walk goes) is the list's by the
+//! shoelace formulas taken afterwards, along the shipped robots' paths,
+//! across jumps, at polygons shifted towards the feasibility border, and
+//! with hints from an unrelated polygon. Each check counts the steps that
+//! took a hint, so that the comparison is known to have reached them.
 
 use cdpr_integration_tests::{
     eight_cable_polygon, frame_poses, persisted_config, shifted_polygon, shipped_robot, smooth_path,

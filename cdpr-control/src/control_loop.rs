@@ -709,9 +709,9 @@ impl ControlLoop {
     }
 
     /// One control cycle into `report` (every field written; the firmware
-    /// keeps one report in place rather than copying 484 bytes a cycle
-    /// out of a returned value): reads the drives (counts -> lengths), carries out
-    /// a pending `Home`, checks the lengths against the last feasible
+    /// keeps one report in place rather than copying 484 bytes a cycle out
+    /// of a returned value): reads the drives (counts -> lengths), carries
+    /// out a pending `Home`, checks the lengths against the last feasible
     /// setpoint's, solves the newest setpoint with the selected feedback
     /// (pose estimate -> task-space wrench or joint-space tension changes),
     /// lets the supervisor decide and writes the drives. `overrun` says
