@@ -15,8 +15,7 @@ use crate::trajectory::{Sample, Waypoints};
 use crate::CliError;
 use cdpr_plot::{line_plot, LinePlot, Series, PALETTE};
 
-/// Most samples a run may have (memory and time stay bounded).
-pub const MAX_SAMPLES: usize = 2_000_000;
+pub use crate::trajectory::MAX_SAMPLES;
 
 /// Arguments of `cdpr trajectory`.
 #[derive(Debug, Clone, clap::Args)]
@@ -138,24 +137,14 @@ pub fn sample_trajectory(
     rate: f64,
     path: &Path,
 ) -> Result<(Vec<f64>, Vec<Sample>), CliError> {
-    if !(rate.is_finite() && rate > 0.0) {
-        return Err(CliError::input(format!(
-            "--rate {rate}: the sample rate must be a positive number of hertz"
-        )));
-    }
-    let count = (waypoints.end() - waypoints.start()) * rate;
-    if count > MAX_SAMPLES as f64 {
-        return Err(CliError::at(
-            path,
-            None,
-            None,
-            &format!(
-                "{:.0} s at {rate} Hz is more than {MAX_SAMPLES} samples; lower --rate",
-                waypoints.end() - waypoints.start()
-            ),
-        ));
-    }
-    let times = waypoints.sample_times(rate);
+    // A bad rate names the option; too many samples, the file.
+    let times = waypoints.sample_times(rate).map_err(|e| {
+        if rate.is_finite() && rate > 0.0 {
+            CliError::at(path, None, None, &e.message)
+        } else {
+            e
+        }
+    })?;
     let samples = times.iter().map(|&t| waypoints.sample(t)).collect();
     Ok((times, samples))
 }
@@ -258,14 +247,14 @@ pub fn run_trajectory(args: &TrajectoryArgs) -> Result<TrajectoryReport, CliErro
 
     ensure_dir(&args.out)?;
     let name = &robot.file.name;
-    let mut files = vec![write_poses(&args.out, &robot, waypoints.extras.is_some(), &samples)?];
+    let mut files = vec![write_poses(&args.out, &robot, waypoints.extras().is_some(), &samples)?];
     let mut summary = format!(
         "robot: {name} ({}, {} DOF, {m} cables) from {}\nwaypoints: {} ({} waypoints, t = {} s to {} s)\nsamples: {} at {} Hz; time law s(u) = 35u^4 - 84u^5 + 70u^6 - 20u^7 per segment, dynamic wrench\n",
         robot.kind().name(),
         robot.dof(),
         robot.path.display(),
         args.waypoints.display(),
-        waypoints.times.len(),
+        waypoints.times().len(),
         fmt_time(waypoints.start()),
         fmt_time(waypoints.end()),
         samples.len(),

@@ -12,15 +12,22 @@ use crate::CliError;
 
 pub use tension_core::trajectory::time_law;
 
-/// Timed waypoints: pose (and optional extra wrench) at each time.
+/// Most samples a trajectory is sampled into (memory and time stay bounded).
+pub const MAX_SAMPLES: usize = 2_000_000;
+
+/// Timed waypoints: pose (and optional extra wrench) at each time. Built
+/// by [`Waypoints::new`] or [`Waypoints::read`], which check what sampling
+/// relies on (so no sample indexes past the end or divides by a zero
+/// duration).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Waypoints {
-    /// Strictly increasing times, s.
-    pub times: Vec<f64>,
-    /// Poses.
-    pub poses: Vec<Vec<f64>>,
-    /// Extra external wrenches (interpolated with the same time law).
-    pub extras: Option<Vec<Vec<f64>>>,
+    /// Strictly increasing finite times, s (at least two).
+    times: Vec<f64>,
+    /// Poses, one per time, all of one length, finite.
+    poses: Vec<Vec<f64>>,
+    /// Extra external wrenches, one per time, all of one length, finite
+    /// (interpolated with the same time law).
+    extras: Option<Vec<Vec<f64>>>,
 }
 
 /// One trajectory sample.
@@ -51,10 +58,63 @@ impl Waypoints {
                 &format!("{} waypoint(s); a trajectory needs at least two", table.rows.len()),
             ));
         }
-        let times = table.rows.iter().map(|r| r.time.as_ref().expect("time is required").1).collect();
+        let times = table.rows.iter().map(|r| r.time.as_ref().map_or(f64::NAN, |t| t.1)).collect();
         let poses = table.rows.iter().map(|r| r.pose.clone()).collect();
-        let extras = table.has_extra.then(|| table.rows.iter().filter_map(|r| r.extra.clone()).collect());
+        let extras =
+            table.has_extra.then(|| table.rows.iter().map(|r| r.extra.clone().unwrap_or_default()).collect());
+        Self::new(times, poses, extras).map_err(|e| CliError::at(path, None, None, &e.message))
+    }
+
+    /// Waypoints from their parts: at least two, the times finite and
+    /// strictly increasing, one pose (and, if given, one extra wrench) per
+    /// time, the poses all of one length and the extras too, every number
+    /// finite. Anything else is bad input ([`CliError::input`]).
+    pub fn new(
+        times: Vec<f64>,
+        poses: Vec<Vec<f64>>,
+        extras: Option<Vec<Vec<f64>>>,
+    ) -> Result<Self, CliError> {
+        if times.len() < 2 {
+            return Err(CliError::input(format!(
+                "{} waypoint(s); a trajectory needs at least two",
+                times.len()
+            )));
+        }
+        if let Some(k) = times.iter().position(|t| !t.is_finite()) {
+            return Err(CliError::input(format!(
+                "waypoint {}: time {} is not a finite number",
+                k + 1,
+                times[k]
+            )));
+        }
+        if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
+            return Err(CliError::input(format!(
+                "waypoint {}: time {} s does not follow {} s (times must increase strictly)",
+                k + 2,
+                times[k + 1],
+                times[k]
+            )));
+        }
+        check_rows("pose", &poses, times.len())?;
+        if let Some(extras) = &extras {
+            check_rows("extra wrench", extras, times.len())?;
+        }
         Ok(Self { times, poses, extras })
+    }
+
+    /// The times, s.
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+
+    /// The poses, one per time.
+    pub fn poses(&self) -> &[Vec<f64>] {
+        &self.poses
+    }
+
+    /// The extra wrenches, one per time, if any.
+    pub fn extras(&self) -> Option<&[Vec<f64>]> {
+        self.extras.as_deref()
     }
 
     /// Start time.
@@ -64,15 +124,32 @@ impl Waypoints {
 
     /// End time.
     pub fn end(&self) -> f64 {
-        *self.times.last().expect("at least two waypoints")
+        self.times[self.times.len() - 1]
     }
 
     /// The sample times at `rate` Hz, from the first waypoint's time to the
-    /// last's, both included.
-    pub fn sample_times(&self, rate: f64) -> Vec<f64> {
+    /// last's, both included. Errors (bad input): a rate that is not a
+    /// positive number, or more than [`MAX_SAMPLES`] samples (memory and
+    /// time stay bounded; a long span at a high rate would otherwise ask for
+    /// more memory than there is).
+    pub fn sample_times(&self, rate: f64) -> Result<Vec<f64>, CliError> {
+        if !(rate.is_finite() && rate > 0.0) {
+            return Err(CliError::input(format!(
+                "--rate {rate}: the sample rate must be a positive number of hertz"
+            )));
+        }
         let (t0, t1) = (self.start(), self.end());
-        let count = ((t1 - t0) * rate).round().max(1.0) as usize;
-        (0..=count).map(|k| if k == count { t1 } else { t0 + k as f64 / rate }).collect()
+        let count = ((t1 - t0) * rate).round().max(1.0);
+        // (The times are finite and increasing: the span is positive, at
+        // worst infinite, never NaN.)
+        if count > MAX_SAMPLES as f64 {
+            return Err(CliError::input(format!(
+                "{:.0} s at {rate} Hz is more than {MAX_SAMPLES} samples; lower --rate",
+                t1 - t0
+            )));
+        }
+        let count = count as usize;
+        Ok((0..=count).map(|k| if k == count { t1 } else { t0 + k as f64 / rate }).collect())
     }
 
     /// Index of the segment holding `t` (the last segment for the end time).
@@ -97,18 +174,40 @@ impl Waypoints {
     }
 }
 
+/// `rows` holds one row per waypoint, all of one length, every number finite.
+fn check_rows(what: &str, rows: &[Vec<f64>], count: usize) -> Result<(), CliError> {
+    if rows.len() != count {
+        return Err(CliError::input(format!("{} {what}(s) for {count} waypoint times", rows.len())));
+    }
+    let width = rows[0].len();
+    for (k, row) in rows.iter().enumerate() {
+        if row.len() != width {
+            return Err(CliError::input(format!(
+                "waypoint {}: {} {what} value(s), waypoint 1 has {width}",
+                k + 1,
+                row.len()
+            )));
+        }
+        if let Some(v) = row.iter().find(|v| !v.is_finite()) {
+            return Err(CliError::input(format!(
+                "waypoint {}: {what} value {v} is not a finite number",
+                k + 1
+            )));
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn samples_rest_at_waypoints() {
-        let w = Waypoints {
-            times: vec![0.0, 1.0, 3.0],
-            poses: vec![vec![0.0, 0.0], vec![1.0, 2.0], vec![1.0, 0.0]],
-            extras: None,
-        };
-        let times = w.sample_times(10.0);
+        let w =
+            Waypoints::new(vec![0.0, 1.0, 3.0], vec![vec![0.0, 0.0], vec![1.0, 2.0], vec![1.0, 0.0]], None)
+                .unwrap();
+        let times = w.sample_times(10.0).unwrap();
         assert_eq!(times.len(), 31);
         assert_eq!(*times.last().unwrap(), 3.0);
         for (t, p) in [(0.0, [0.0, 0.0]), (1.0, [1.0, 2.0]), (3.0, [1.0, 0.0])] {

@@ -333,6 +333,21 @@ fn bad_input_is_one_line_and_nothing_is_sent() {
     .unwrap();
     let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
     assert!(e.message.contains("line 3") && e.message.contains("jump"), "{e}");
+    // Waypoints too far apart for the board's u32 ms clock, and too many
+    // samples (both used to abort the tool, sizing the samples first).
+    let waypoints = dir.join("far.csv");
+    a.poses = None;
+    a.waypoints = Some(waypoints.clone());
+    for (last, expect) in [("1e13", "49 days"), ("1e5", "more than 2000000 samples")] {
+        std::fs::write(&waypoints, format!("time,x,y,z,rx,ry,rz\n0,0,0,1.8,0,0,0\n{last},0.1,0,1.8,0,0,0\n"))
+            .unwrap();
+        let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(
+            e.message.contains("far.csv") && e.message.contains(expect) && !e.message.contains('\n'),
+            "{e}"
+        );
+    }
     // A robot the firmware cannot be built for.
     a.robot = common::robot("planar3-5");
     let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();

@@ -42,8 +42,13 @@ impl Plan {
         }
         let w = Waypoints::read(path, RobotKind::Spatial6)?;
         let t0 = w.start();
-        let mut points = Vec::new();
-        for t in w.sample_times(rate) {
+        // The points' times are u32 ms from the first (as a pose table's).
+        if (w.end() - t0) * 1000.0 > f64::from(u32::MAX) {
+            return Err(CliError::at(path, None, None, "last waypoint beyond 49 days after the first"));
+        }
+        let times = w.sample_times(rate).map_err(|e| CliError::at(path, None, None, &e.message))?;
+        let mut points = Vec::with_capacity(times.len());
+        for t in times {
             let s = w.sample(t);
             points.push(TrajectoryPoint {
                 time_ms: ((t - t0) * 1000.0).round() as u32,
