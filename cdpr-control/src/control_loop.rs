@@ -331,7 +331,7 @@ impl ControlLoop {
         );
         let joint_pid = JointGains::triple_pole(&robot, &centre, DEFAULT_OMEGA, DEFAULT_JOINT_INTEGRAL_MAX)
             .ok()
-            .map(JointPid::new);
+            .and_then(|gains| JointPid::new(gains).ok());
         Ok(Self {
             scale,
             homing: None,
@@ -340,7 +340,7 @@ impl ControlLoop {
             drive_fault: None,
             estimator: Estimator::new(EstimatorSettings::DEFAULT),
             scheme: Scheme::FeedForward,
-            task_pid: TaskPid::new(gains, DEFAULT_FEEDBACK_LIMITS),
+            task_pid: TaskPid::new(gains, DEFAULT_FEEDBACK_LIMITS)?,
             joint_pid,
             tracking_limit: Some(DEFAULT_TRACKING_LIMIT),
             feasible_lengths: None,
@@ -485,12 +485,15 @@ impl ControlLoop {
         &self.task_pid
     }
 
-    /// The joint-space gains (`None`: the scheme is not offered).
-    pub fn set_joint_gains(&mut self, gains: Option<JointGains>) {
-        self.joint_pid = gains.map(JointPid::new);
+    /// The joint-space gains (`None`: the scheme is not offered). Errors:
+    /// [`Error::InvalidLimits`] for an integral bound that is NaN or below
+    /// zero (nothing changes then).
+    pub fn set_joint_gains(&mut self, gains: Option<JointGains>) -> Result<(), Error> {
+        self.joint_pid = gains.map(JointPid::new).transpose()?;
         if self.joint_pid.is_none() && self.scheme == Scheme::JointSpace {
             self.scheme = Scheme::FeedForward;
         }
+        Ok(())
     }
 
     /// The joint-space PID, if offered.

@@ -171,11 +171,11 @@ fn limit(v: Vector3<f32>, max: f32) -> Vector3<f32> {
 }
 
 /// Whether `max` bounds a magnitude: zero or more (NaN is not).
-fn is_bound(max: f32) -> bool {
+const fn is_bound(max: f32) -> bool {
     max >= 0.0
 }
 
-/// `v` within `+-max` for a bound `max >= 0` (the callers check it; NaN
+/// `v` within `+-max` for a bound `max >= 0` (the constructors check it; NaN
 /// `v` stays NaN): comparisons, where `f32::clamp` asserts its bounds'
 /// order.
 fn within(v: f32, max: f32) -> f32 {
@@ -244,9 +244,22 @@ pub struct TaskPid {
 }
 
 impl TaskPid {
-    /// A PID with zero integral state.
-    pub const fn new(gains: Gains, limits: FeedbackLimits) -> Self {
-        Self { gains, limits, integral: [0.0; 6], output: [0.0; 6] }
+    /// A PID with zero integral state. Errors: [`Error::InvalidLimits`]
+    /// when a bound of `limits` is NaN or below zero (it bounds nothing:
+    /// `f32::clamp` would panic on it, the wrench's limit would pass or
+    /// flip the wrench), so that a PID, once made, always bounds its
+    /// output.
+    pub const fn new(gains: Gains, limits: FeedbackLimits) -> Result<Self, Error> {
+        let mut bounds = is_bound(limits.force_max) && is_bound(limits.moment_max);
+        let mut k = 0;
+        while k < 6 {
+            bounds &= is_bound(limits.integral_max[k]);
+            k += 1;
+        }
+        if !bounds {
+            return Err(Error::InvalidLimits);
+        }
+        Ok(Self { gains, limits, integral: [0.0; 6], output: [0.0; 6] })
     }
 
     /// The gains.
@@ -317,9 +330,7 @@ impl TaskPid {
     /// kinematics. `scale` is the fraction of the force and of the moment
     /// carried (the back-off; each part's integral advances only at 1);
     /// `prediction` the delay the errors are predicted over first.
-    /// Errors: [`Error::NonFinite`] for a non-finite input,
-    /// [`Error::InvalidLimits`] when a bound of [`FeedbackLimits`] is NaN or
-    /// below zero.
+    /// Errors: [`Error::NonFinite`] for a non-finite input.
     #[allow(clippy::too_many_arguments)]
     pub fn update_error(
         &mut self,
@@ -333,13 +344,6 @@ impl TaskPid {
     ) -> Result<Wrench, Error> {
         if !error.iter().chain(rates.iter()).chain(rc.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
             return Err(Error::NonFinite);
-        }
-        // A bound that is NaN or below zero bounds nothing: no wrench
-        // (`f32::clamp` would panic on it, `limit` would pass or flip the
-        // wrench).
-        let l = &self.limits;
-        if !l.integral_max.iter().chain([&l.force_max, &l.moment_max]).all(|m| is_bound(*m)) {
-            return Err(Error::InvalidLimits);
         }
         let accel: [f32; 6] = core::array::from_fn(|k| self.output[k] * prediction.inv_mass[k]);
         let (e, rates) = predict(error, rates, &accel, prediction.delay_s);
@@ -476,9 +480,13 @@ pub struct JointPid {
 }
 
 impl JointPid {
-    /// Zero integral.
-    pub const fn new(gains: JointGains) -> Self {
-        Self { gains, integral: [0.0; CABLES] }
+    /// Zero integral. Errors: [`Error::InvalidLimits`] when the gains'
+    /// `integral_max` is NaN or below zero (it bounds nothing).
+    pub const fn new(gains: JointGains) -> Result<Self, Error> {
+        if !is_bound(gains.integral_max) {
+            return Err(Error::InvalidLimits);
+        }
+        Ok(Self { gains, integral: [0.0; CABLES] })
     }
 
     /// The gains.
@@ -499,8 +507,7 @@ impl JointPid {
     /// Per cable, the tension change (N) for measured `lengths` and
     /// `rates` against the desired `lengths_d`, `rates_d` (m, m/s; positive
     /// rates pay out); with `integrate` the integral advances by `dt`.
-    /// Errors: [`Error::InvalidLimits`] when the gains' `integral_max` is
-    /// NaN or below zero, [`Error::NonFinite`] for a non-finite error.
+    /// Errors: [`Error::NonFinite`] for a non-finite error.
     pub fn update(
         &mut self,
         lengths: &[f32; CABLES],
@@ -511,10 +518,6 @@ impl JointPid {
         integrate: bool,
     ) -> Result<[f32; CABLES], Error> {
         let g = &self.gains;
-        // NaN or below zero bounds nothing (`f32::clamp` would panic).
-        if !is_bound(g.integral_max) {
-            return Err(Error::InvalidLimits);
-        }
         let mut out = [0.0; CABLES];
         for i in 0..CABLES {
             let e = lengths[i] - lengths_d[i];
@@ -612,7 +615,7 @@ mod tests {
     fn the_pid_acts_on_the_predicted_error() {
         let gains = Gains::triple_pole(6.34, [0.05, 0.05, 0.08], 31.4, 31.4);
         let limits = FeedbackLimits { force_max: 1e6, moment_max: 1e6, integral_max: [0.0; 6] };
-        let mut pid = TaskPid::new(gains, limits);
+        let mut pid = TaskPid::new(gains, limits).unwrap();
         let p = Prediction::new(1.0e-3, 6.34, [0.05, 0.05, 0.08]);
         let e = [1.0e-3, 0.0, 0.0, 0.0, 0.002, 0.0];
         let r = [0.01, 0.0, 0.0, 0.0, 0.0, 0.0];

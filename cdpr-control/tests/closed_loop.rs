@@ -510,6 +510,7 @@ fn unbounded_task_pid(control: &ControlLoop) -> cdpr_control::feedback::TaskPid 
             integral_max: [0.0; 6],
         },
     )
+    .expect("bounds of zero or more")
 }
 
 #[test]

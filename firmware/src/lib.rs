@@ -148,11 +148,16 @@ impl Board {
         control.offer_only(cdpr_demo::methods::offered());
         // The feedback's bounds scaled to the platform's weight.
         let gains = *control.task_pid().gains();
-        control.set_task_pid(TaskPid::new(gains, robot::feedback_limits()));
+        match TaskPid::new(gains, robot::feedback_limits()) {
+            Ok(pid) => control.set_task_pid(pid),
+            Err(e) => panic!("feedback limits rejected: {}", e.status()),
+        }
         let joint = control
             .joint_pid()
             .map(|pid| JointGains { integral_max: robot::joint_integral_max(), ..*pid.gains() });
-        control.set_joint_gains(joint);
+        if let Err(e) = control.set_joint_gains(joint) {
+            panic!("joint-space integral bound rejected: {}", e.status());
+        }
         match robot::encoder_scale() {
             Ok(scale) => control.set_encoder(scale),
             Err(e) => panic!("robot file's encoders rejected: {:?}", e),

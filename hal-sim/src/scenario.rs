@@ -650,7 +650,9 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
         .map_err(|e| format!("control loop: {}", e.status()))?;
     control.controller_mut().set_friction(config.friction);
     control.set_encoder(scale);
-    control.set_task_pid(TaskPid::new(config.gains, config.limits));
+    control.set_task_pid(
+        TaskPid::new(config.gains, config.limits).map_err(|e| format!("feedback limits: {}", e.status()))?,
+    );
     control.set_estimator(config.estimator);
     control.set_back_off(config.back_off);
     control.set_loop_delay(config.loop_delay);
