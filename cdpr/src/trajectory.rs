@@ -50,14 +50,6 @@ impl Waypoints {
     /// the extra wrench columns); at least two rows.
     pub fn read(path: &Path, kind: RobotKind) -> Result<Self, CliError> {
         let table = read_poses(path, kind, TimeColumn::Required)?;
-        if table.rows.len() < 2 {
-            return Err(CliError::at(
-                path,
-                None,
-                None,
-                &format!("{} waypoint(s); a trajectory needs at least two", table.rows.len()),
-            ));
-        }
         let times = table.rows.iter().map(|r| r.time.as_ref().map_or(f64::NAN, |t| t.1)).collect();
         let poses = table.rows.iter().map(|r| r.pose.clone()).collect();
         let extras =
