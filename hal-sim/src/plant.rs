@@ -365,19 +365,25 @@ impl Plant {
         matches!(self.faults.cable_break, Some((c, at)) if c == i && t >= at)
     }
 
-    /// The torque drive `i` can deliver at time `t`, N m.
+    /// The torque drive `i` can deliver at time `t`, N m: zero or more,
+    /// never NaN. A derate (or a winch limit) to a NaN or negative torque
+    /// delivers nothing (`f64::min` would drop a NaN and deliver the full
+    /// torque; `f64::clamp` by it would panic).
     fn torque_limit(&self, i: usize, t: f64) -> f64 {
-        match self.faults.derate {
-            // A derate to a NaN or negative torque delivers nothing
-            // (`f64::min` would drop a NaN and deliver the full torque).
+        let limit = match self.faults.derate {
             Some(d) if d.cable == i && t >= d.at => {
-                if d.torque >= 0.0 {
-                    d.torque.min(self.winch.torque_max)
+                if d.torque > self.winch.torque_max {
+                    self.winch.torque_max
                 } else {
-                    0.0
+                    d.torque
                 }
             }
             _ => self.winch.torque_max,
+        };
+        if limit >= 0.0 {
+            limit
+        } else {
+            0.0
         }
     }
 
@@ -455,21 +461,9 @@ impl Plant {
         let (radius, gear, eta) = (self.winch.drum_radius, self.winch.gear_ratio, self.winch.efficiency);
         let mass_eq = self.model.motor_inertia * gear * gear / (radius * radius);
         for (i, &tension) in tensions.iter().enumerate() {
-            // A limit that is NaN or below zero delivers nothing (no
-            // `f64::clamp`: it panics on such bounds).
+            // (The limit is zero or more: see `torque_limit`.)
             let limit = self.torque_limit(i, t);
-            let command = self.command[i];
-            let target = if limit >= 0.0 {
-                if command > limit {
-                    limit
-                } else if command < -limit {
-                    -limit
-                } else {
-                    command
-                }
-            } else {
-                0.0
-            };
+            let target = self.command[i].clamp(-limit, limit);
             out.torque[i] = (target - s.torque[i]) / self.model.current_time_constant;
             if self.locked {
                 out.len[i] = 0.0;
