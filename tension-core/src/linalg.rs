@@ -169,9 +169,24 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
         if !(r_finite && finite(self.rdiag.as_slice()) && finite(self.beta.as_slice())) {
             return Err(Error::NonFinite);
         }
-        // Null-space basis: Z e_k = H_1 ... H_N e_{N+k}.
+        // Null-space basis: Z e_k = H_1 ... H_N e_{N+k}, two columns at a
+        // time: each reflection is read once for both, one loop's
+        // bookkeeping for two columns (the board's factorisation 2 571 ->
+        // 2 492 instructions with eight cables), the same arithmetic per
+        // column as one at a time.
         let r = null_columns.min(M - N);
-        for k in 0..r {
+        let mut k = 0;
+        while k + 1 < r {
+            let mut e = [T::zero(); M];
+            let mut e2 = [T::zero(); M];
+            e[N + k] = T::one();
+            e2[N + k + 1] = T::one();
+            self.apply_q_pair(&mut e, &mut e2);
+            self.z.set_column(k, &SVector::from(e));
+            self.z.set_column(k + 1, &SVector::from(e2));
+            k += 2;
+        }
+        if k < r {
             let mut e: SVector<T, M> = SVector::zeros();
             e[N + k] = T::one();
             self.apply_q(&mut e);
@@ -206,6 +221,21 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             let s = dot(vk, x_s) * self.beta[k];
             for (c, &x) in x_s.iter_mut().zip(vk) {
                 *c -= s * x;
+            }
+        }
+    }
+
+    /// [`Self::apply_q`] on `x` and `y` together: per reflection the same
+    /// operations, in the same order, on each.
+    fn apply_q_pair(&self, x: &mut [T; M], y: &mut [T; M]) {
+        let v_s = self.v.as_slice();
+        for k in (0..N).rev() {
+            let vk = &v_s[k * M..(k + 1) * M];
+            let sx = dot(vk, x) * self.beta[k];
+            let sy = dot(vk, y) * self.beta[k];
+            for ((a, b), &v) in x.iter_mut().zip(y.iter_mut()).zip(vk) {
+                *a -= sx * v;
+                *b -= sy * v;
             }
         }
     }
@@ -451,6 +481,38 @@ mod tests {
 
     fn sample() -> SMatrix<f64, 3, 5> {
         SMatrix::<f64, 3, 5>::from_fn(|i, j| (((i * 5 + j) * (i * 5 + j) + 1) as f64).sin())
+    }
+
+    /// The null-space columns, made two at a time (`apply_q_pair`) with
+    /// one left over when their count is odd, are each `Q e_(N+k)` from
+    /// `apply_q` alone, bit for bit, in both precisions.
+    #[test]
+    fn null_columns_in_pairs_are_q_applied_one_by_one() {
+        fn check<T: Real, const N: usize, const M: usize>(w: &SMatrix<T, N, M>) -> usize {
+            let mut compared = 0;
+            for r in 0..=(M - N) {
+                let mut fact = WrenchFactorization::<T, N, M>::zeroed();
+                fact.factor(w, &[true; M], r).unwrap();
+                assert_eq!(fact.null_columns(), Some(r));
+                for k in 0..r {
+                    let mut e: SVector<T, M> = SVector::zeros();
+                    e[N + k] = T::one();
+                    fact.apply_q(&mut e);
+                    for i in 0..M {
+                        let (a, b) = (fact.null(i, k), e[i]);
+                        let same = a == b && a.is_sign_negative() == b.is_sign_negative();
+                        assert!(same, "r {r}, column {k}, row {i}");
+                    }
+                    compared += 1;
+                }
+            }
+            compared
+        }
+        let w3 = SMatrix::<f64, 3, 6>::from_fn(|i, j| (((i * 6 + j) * (i * 6 + j) + 1) as f64).sin());
+        let w2 = SMatrix::<f64, 2, 6>::from_fn(|i, j| (((i * 7 + j) * 3 + 2) as f64).cos());
+        // Three null columns (a pair and one alone), four (two pairs).
+        let compared = check(&w3) + check(&w3.map(|x| x as f32)) + check(&w2) + check(&w2.map(|x| x as f32));
+        assert_eq!(compared, 2 * (1 + 2 + 3) + 2 * (1 + 2 + 3 + 4));
     }
 
     #[test]
