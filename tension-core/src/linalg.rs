@@ -145,8 +145,20 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             let b = T::lit(2.0) / vnorm2;
             self.beta[k] = b;
             let vk = &*vk;
-            // a <- H a on columns k + 1..
-            for cj in later.iter_mut() {
+            // a <- H a on columns k + 1.., two at a time (as the null
+            // space's columns below).
+            let mut pairs = later.chunks_exact_mut(2);
+            for pair in pairs.by_ref() {
+                let (ci, cj) = pair.split_at_mut(1);
+                let (ci, cj) = (&mut ci[0], &mut cj[0]);
+                let si = dot(vk, ci) * b;
+                let sj = dot(vk, cj) * b;
+                for ((c, d), &x) in ci.iter_mut().zip(cj.iter_mut()).zip(vk) {
+                    *c -= si * x;
+                    *d -= sj * x;
+                }
+            }
+            for cj in pairs.into_remainder() {
                 let s = dot(vk, cj) * b;
                 for (c, &x) in cj.iter_mut().zip(vk) {
                     *c -= s * x;
