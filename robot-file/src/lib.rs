@@ -230,11 +230,23 @@ pub struct DriveSpec {
 }
 
 impl DriveSpec {
+    /// Drives two CAN buses address: node ids 1..=127 on each.
+    pub const MAX_DRIVES: usize = 2 * 127;
+
     /// The default split of `cables` drives: the first half (rounded up) on
-    /// CAN1 with node ids 1, 2, ..., the rest on CAN2 with node ids 1, 2, ...
-    pub fn default_split(cables: usize) -> (Vec<u8>, Vec<u8>) {
+    /// CAN1 with node ids 1, 2, ..., the rest on CAN2 with node ids 1, 2,
+    /// ...; `None` for more than [`Self::MAX_DRIVES`] (a bus would need an
+    /// id above 127).
+    pub fn default_split(cables: usize) -> Option<(Vec<u8>, Vec<u8>)> {
+        if cables > Self::MAX_DRIVES {
+            return None;
+        }
         let first = cables.div_ceil(2);
-        (0..cables).map(|i| if i < first { ((i + 1) as u8, 1) } else { ((i - first + 1) as u8, 2) }).unzip()
+        Some(
+            (0..cables)
+                .map(|i| if i < first { ((i + 1) as u8, 1) } else { ((i - first + 1) as u8, 2) })
+                .unzip(),
+        )
     }
 }
 
@@ -301,6 +313,20 @@ impl RobotFile {
             let at = e.span().map(|s| Location::of_offset(text, s.start));
             RobotFileError::new(RobotFileErrorKind::Format(e.message().trim().to_string()), at)
         })?;
+        // Every cable has a winch drive, and two CAN buses address 254
+        // (checked first: the per-cable checks below compare the drives
+        // pairwise).
+        if let Some(extra) = raw.cable.get(DriveSpec::MAX_DRIVES) {
+            let what = format!(
+                "the file has {} cables; at most {} (a winch drive each, node ids 1..=127 on each of the two CAN buses)",
+                raw.cable.len(),
+                DriveSpec::MAX_DRIVES
+            );
+            return Err(RobotFileError::new(
+                RobotFileErrorKind::Format(what),
+                Some(Location::line_of(text, extra.span())),
+            ));
+        }
         let kind_at = Location::of_offset(text, raw.kind.span().start);
         let kind = RobotKind::from_name(raw.kind.get_ref()).ok_or_else(|| {
             RobotFileError::new(RobotFileErrorKind::UnknownKind(raw.kind.get_ref().clone()), Some(kind_at))
@@ -596,7 +622,8 @@ fn drive_spec(text: &str, winch: Option<&WinchToml>, cables: usize) -> Result<Dr
     let format = |what: String, span: Range<usize>| {
         RobotFileError::new(RobotFileErrorKind::Format(what), Some(Location::of_offset(text, span.start)))
     };
-    let (default_ids, default_buses) = DriveSpec::default_split(cables);
+    // `parse` refuses more cables than the buses address before this.
+    let (default_ids, default_buses) = DriveSpec::default_split(cables).unwrap_or_default();
     let rated_torque = match winch.and_then(|w| w.rated_torque.as_ref()) {
         None => None,
         Some(r) => {
@@ -767,7 +794,14 @@ attach = [0.0, 0.0, 0.0]
             default,
             DriveSpec { rated_torque: None, node_ids: vec![1, 2, 1], buses: vec![1, 1, 2], explicit: false }
         );
-        assert_eq!(DriveSpec::default_split(8), (vec![1, 2, 3, 4, 1, 2, 3, 4], vec![1, 1, 1, 1, 2, 2, 2, 2]));
+        assert_eq!(
+            DriveSpec::default_split(8),
+            Some((vec![1, 2, 3, 4, 1, 2, 3, 4], vec![1, 1, 1, 1, 2, 2, 2, 2]))
+        );
+        let (ids, buses) = DriveSpec::default_split(DriveSpec::MAX_DRIVES).unwrap();
+        assert_eq!((ids[126], ids[127], ids[253]), (127, 1, 127));
+        assert_eq!((buses[126], buses[127]), (1, 2));
+        assert_eq!(DriveSpec::default_split(DriveSpec::MAX_DRIVES + 1), None);
         let with = |keys: &str| {
             RobotFile::parse(&base.replace("torque_max = 2.5\n", &format!("torque_max = 2.5\n{keys}\n")))
         };
