@@ -9,12 +9,24 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use clap::Parser;
+
 use hal_sim::output::{figures, write};
 use hal_sim::{run, Config, Scenario};
 
-fn usage() -> String {
-    let names: Vec<String> = Scenario::all().into_iter().map(|s| s.name).collect();
-    format!("usage: hal-sim --scenario NAME|all --out DIR | --list\nscenarios: {}", names.join(", "))
+/// Runs the closed-loop scenarios and writes their CSV tables and plots.
+#[derive(Debug, Parser)]
+#[command(name = "hal-sim", version, about)]
+struct Args {
+    /// The scenario to run (`--list` names them), or `all`.
+    #[arg(long, value_name = "NAME|all", required_unless_present = "list", requires = "out")]
+    scenario: Option<String>,
+    /// Directory for the CSV tables and the plots (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Lists the scenarios with what each does, and exits.
+    #[arg(long, conflicts_with_all = ["scenario", "out"])]
+    list: bool,
 }
 
 /// `1.038` or `-`.
@@ -23,35 +35,15 @@ fn seconds(t: Option<f64>) -> String {
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut scenario = None;
-    let mut out = None;
-    let mut i = 0;
-    while i < args.len() {
-        match args[i].as_str() {
-            "--scenario" if i + 1 < args.len() => {
-                scenario = Some(args[i + 1].clone());
-                i += 1;
-            }
-            "--out" if i + 1 < args.len() => {
-                out = Some(PathBuf::from(&args[i + 1]));
-                i += 1;
-            }
-            "--list" => {
-                for s in Scenario::all() {
-                    println!("{:<24} {}", s.name, s.description);
-                }
-                return ExitCode::SUCCESS;
-            }
-            _ => {
-                eprintln!("{}", usage());
-                return ExitCode::from(2);
-            }
+    let args = Args::parse();
+    if args.list {
+        for s in Scenario::all() {
+            println!("{:<24} {}", s.name, s.description);
         }
-        i += 1;
+        return ExitCode::SUCCESS;
     }
-    let (Some(name), Some(out)) = (scenario, out) else {
-        eprintln!("{}", usage());
+    let (Some(name), Some(out)) = (args.scenario, args.out) else {
+        // clap requires both unless `--list`.
         return ExitCode::from(2);
     };
     let scenarios = if name == "all" {
@@ -60,7 +52,8 @@ fn main() -> ExitCode {
         match Scenario::named(&name) {
             Some(s) => vec![s],
             None => {
-                eprintln!("unknown scenario {name}\n{}", usage());
+                let names: Vec<String> = Scenario::all().into_iter().map(|s| s.name).collect();
+                eprintln!("error: unknown scenario `{name}` (scenarios: {}, or all)", names.join(", "));
                 return ExitCode::from(2);
             }
         }

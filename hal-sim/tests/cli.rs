@@ -1,0 +1,47 @@
+//! The `hal-sim` command line (clap): the listing, and usage errors with
+//! exit code 2 that say what is wrong, before any scenario runs.
+
+use std::process::Command;
+
+use hal_sim::Scenario;
+
+fn run(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_hal-sim")).args(args).output().expect("hal-sim runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn list_names_every_scenario() {
+    let (code, stdout, _) = run(&["--list"]);
+    assert_eq!(code, 0);
+    let all = Scenario::all();
+    assert_eq!(stdout.lines().count(), all.len());
+    for (line, s) in stdout.lines().zip(&all) {
+        assert!(line.starts_with(&s.name) && line.ends_with(&s.description), "{line}");
+    }
+}
+
+#[test]
+fn usage_errors_exit_2_and_say_what_is_wrong() {
+    let cases: [(&[&str], &str); 7] = [
+        (&[], "--scenario"),
+        (&["--scenario", "all"], "--out"),
+        (&["--out", "x"], "--scenario"),
+        (&["--scenario"], "a value is required"),
+        (&["--list", "--out", "x"], "cannot be used with"),
+        (&["--bogus"], "unexpected argument '--bogus'"),
+        (&["--scenario", "no-such", "--out", "x"], "unknown scenario `no-such`"),
+    ];
+    for (args, expected) in cases {
+        let (code, stdout, stderr) = run(args);
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert!(stdout.is_empty(), "{args:?}: {stdout}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+    }
+    // Nothing was written for the unknown scenario.
+    assert!(!std::path::Path::new("x").exists());
+}
