@@ -33,10 +33,10 @@ mod python;
 
 use std::process::exit;
 
+use clap::{Parser, Subcommand};
+
 use checks::{cargo_test, check, Tally};
 use firmware::TARGET;
-
-const USAGE: &str = "usage: cargo xtask run [--robot FILE] | cargo xtask test | cargo xtask e2e [--robot FILE] | cargo xtask python | cargo xtask stress [--robot FILE] [--poses N] | cargo xtask qemu [--robot FILE] [--tcp PORT]";
 
 /// Poses of `cargo xtask stress` unless `--poses` says otherwise.
 const STRESS_POSES: u32 = 100_000;
@@ -44,46 +44,70 @@ const STRESS_POSES: u32 = 100_000;
 /// The TCP port of `cargo xtask qemu` unless `--tcp` says otherwise.
 const QEMU_PORT: u16 = 4444;
 
+/// The project's tasks (`cargo xtask TASK`).
+#[derive(Debug, Parser)]
+#[command(
+    name = "cargo xtask",
+    bin_name = "cargo xtask",
+    about = "The project's tasks: set-up included, on a bare clone"
+)]
+struct Cli {
+    #[command(subcommand)]
+    task: Task,
+}
+
+#[derive(Debug, Subcommand)]
+enum Task {
+    /// The firmware in QEMU on its demo trajectory (readable output).
+    Run {
+        /// Robot file (from the workspace root).
+        #[arg(long, value_name = "FILE", default_value = firmware::DEFAULT_ROBOT)]
+        robot: String,
+    },
+    /// Every check and test; `N passed, N failed` last.
+    Test,
+    /// Only the end-to-end serial test (part of `test`).
+    E2e {
+        /// Robot file (from the workspace root).
+        #[arg(long, value_name = "FILE", default_value = firmware::DEFAULT_ROBOT)]
+        robot: String,
+    },
+    /// Only the Python package's checks and tests (part of `test`).
+    Python,
+    /// The stress set of hard poses through every method under QEMU.
+    Stress {
+        /// Robot file (from the workspace root).
+        #[arg(long, value_name = "FILE", default_value = firmware::DEFAULT_ROBOT)]
+        robot: String,
+        /// Poses in the set.
+        #[arg(long, value_name = "N", default_value_t = STRESS_POSES)]
+        poses: u32,
+    },
+    /// The product firmware in QEMU in real time, USART1 on a local TCP port.
+    Qemu {
+        /// Robot file (from the workspace root).
+        #[arg(long, value_name = "FILE", default_value = firmware::DEFAULT_ROBOT)]
+        robot: String,
+        /// The local TCP port.
+        #[arg(long, value_name = "PORT", default_value_t = QEMU_PORT)]
+        tcp: u16,
+    },
+}
+
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let task = args.first().cloned().unwrap_or_default();
+    let cli = Cli::parse();
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     if let Err(e) = std::env::set_current_dir(&root) {
         eprintln!("cannot enter the workspace root: {e}");
         exit(2);
     }
-    if task == "qemu" {
-        qemu(&args[1..]);
-    }
-    if task == "stress" {
-        stress(&args[1..]);
-    }
-    let robot = match robot_option(&args[args.len().min(1)..]) {
-        Ok(robot) => robot,
-        Err(e) => {
-            eprintln!("{e}\n{USAGE}");
-            exit(2);
-        }
-    };
-    match (task.as_str(), robot) {
-        ("run", robot) => run(robot.as_deref().unwrap_or(firmware::DEFAULT_ROBOT)),
-        ("test", None) => test(),
-        ("python", None) => python_only(),
-        ("e2e", robot) => e2e(robot.as_deref().unwrap_or(firmware::DEFAULT_ROBOT)),
-        _ => {
-            eprintln!("{USAGE}");
-            exit(2);
-        }
-    }
-}
-
-/// `--robot FILE` or `--robot=FILE` among `args` (nothing else is taken).
-fn robot_option(args: &[String]) -> Result<Option<String>, String> {
-    match args {
-        [] => Ok(None),
-        [flag, file] if flag == "--robot" => Ok(Some(file.clone())),
-        [one] if one.starts_with("--robot=") => Ok(Some(one["--robot=".len()..].to_string())),
-        other => Err(format!("unexpected arguments {other:?}")),
+    match cli.task {
+        Task::Run { robot } => run(&robot),
+        Task::Test => test(),
+        Task::E2e { robot } => e2e(&robot),
+        Task::Python => python_only(),
+        Task::Stress { robot, poses } => stress(&robot_or_exit(&robot), poses),
+        Task::Qemu { robot, tcp } => qemu(&robot_or_exit(&robot), tcp),
     }
 }
 
@@ -98,42 +122,10 @@ fn robot_or_exit(file: &str) -> std::path::PathBuf {
     }
 }
 
-/// `--robot FILE` (default [`firmware::DEFAULT_ROBOT`], made absolute by
-/// [`robot_or_exit`]) and `flag VALUE` (`what` it must be; `default` when
-/// absent) in any order among `args`, or exit with the usage.
-fn robot_and_option<T: std::str::FromStr>(
-    args: &[String],
-    flag: &str,
-    what: &str,
-    default: T,
-) -> (std::path::PathBuf, T) {
-    let (mut robot, mut value) = (firmware::DEFAULT_ROBOT.to_string(), default);
-    let mut i = 0;
-    while i < args.len() {
-        match (args[i].as_str(), args.get(i + 1)) {
-            ("--robot", Some(file)) => robot = file.clone(),
-            (f, Some(v)) if f == flag => match v.parse() {
-                Ok(v) => value = v,
-                Err(_) => {
-                    eprintln!("{flag} {v}: {what}\n{USAGE}");
-                    exit(2);
-                }
-            },
-            _ => {
-                eprintln!("unexpected arguments {:?}\n{USAGE}", &args[i..]);
-                exit(2);
-            }
-        }
-        i += 2;
-    }
-    (robot_or_exit(&robot), value)
-}
-
 /// `cargo xtask stress`: the stress program for the robot and the number
 /// of poses, under QEMU; exits 0 when it passes.
-fn stress(args: &[String]) -> ! {
-    let (robot, poses) = robot_and_option(args, "--poses", "a number", STRESS_POSES);
-    match firmware::setup().and_then(|()| firmware::run_stress(&robot, poses)) {
+fn stress(robot: &std::path::Path, poses: u32) -> ! {
+    match firmware::setup().and_then(|()| firmware::run_stress(robot, poses)) {
         Ok(verdict) => {
             println!("==> stress run: ok ({verdict})");
             exit(0)
@@ -148,9 +140,8 @@ fn stress(args: &[String]) -> ! {
 /// `cargo xtask qemu`: builds the product for the robot and runs it in
 /// QEMU (real time, `sleep=on`) with USART1 on a TCP server port; exits
 /// with QEMU (Ctrl-C ends both).
-fn qemu(args: &[String]) -> ! {
-    let (robot, port) = robot_and_option(args, "--tcp", "a port number", QEMU_PORT);
-    if let Err(e) = firmware::setup().and_then(|()| firmware::build_product(&robot)) {
+fn qemu(robot: &std::path::Path, port: u16) -> ! {
+    if let Err(e) = firmware::setup().and_then(|()| firmware::build_product(robot)) {
         eprintln!("error: {e}");
         exit(1);
     }
