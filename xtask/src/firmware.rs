@@ -47,9 +47,10 @@ const DEMO: &str = "demo";
 /// arrays and checks what it keeps; 14,570 since the walk skips its search
 /// among concurrent lines when no line ties and the estimator shares the
 /// solver's factorisation; 14,343 since the step writes its report and its
-/// telemetry in place, session 20), below the [`BUDGET`]. Other robots'
-/// steps are held to the budget.
-const REGRESSION_CEILING: u32 = 14_500;
+/// telemetry in place, session 20; 14,114 since the factorisation's
+/// reflections are applied to two columns at a time, session 22), below
+/// the [`BUDGET`]. Other robots' steps are held to the budget.
+const REGRESSION_CEILING: u32 = 14_300;
 
 /// The regression ceiling of the step's receive share under the demo's
 /// receive flood: a cycle's `cdpr_control::FRAME_BUDGET` (2) of
@@ -637,8 +638,8 @@ mod tests {
         Report {
             instructions: true,
             cycles: 4000,
-            step: Spread { min: 10_223, median: 10_880, max: 14_343 },
-            solver: Spread { min: 6_151, median: 6_230, max: 9_946 },
+            step: Spread { min: 10_027, median: 10_659, max: 14_114 },
+            solver: Spread { min: 5_955, median: 6_034, max: 9_750 },
             overruns: 0,
             calibration_ticks: 160_000,
             calibration_expected: 160_000,
