@@ -527,6 +527,65 @@ mod tests {
         assert_eq!(compared, 2 * (1 + 2 + 3) + 2 * (1 + 2 + 3 + 4));
     }
 
+    /// The factorisation's update of the later columns two at a time is the
+    /// update one column at a time (this reference: the loop before the
+    /// pairs), bit for bit: `R`, its diagonal, the reflections and their
+    /// `beta`, for shapes whose later columns come in pairs, with one left
+    /// over, or both, in both precisions.
+    #[test]
+    fn later_columns_in_pairs_are_reflected_one_by_one() {
+        fn same<T: Real>(a: T, b: T) -> bool {
+            a == b && a.is_sign_negative() == b.is_sign_negative()
+        }
+        // The reference is written with indices, as the algorithm is
+        // printed (Golub & Van Loan, Alg. 5.2.1).
+        #[allow(clippy::needless_range_loop)]
+        fn check<T: Real, const N: usize, const M: usize>(w: &SMatrix<T, N, M>) -> usize {
+            let mut fact = WrenchFactorization::<T, N, M>::zeroed();
+            fact.factor(w, &[true; M], M - N).unwrap();
+            // One column at a time.
+            let mut a: [[T; M]; N] = w.transpose().data.0;
+            let mut compared = 0;
+            for k in 0..N {
+                let mut v = [T::zero(); M];
+                let mut norm2 = T::zero();
+                for i in k..M {
+                    v[i] = a[k][i];
+                    norm2 += v[i] * v[i];
+                }
+                let (norm, akk) = (norm2.sqrt_native(), a[k][k]);
+                let alpha = if akk >= T::zero() { -norm } else { norm };
+                let v0 = akk - alpha;
+                v[k] = v0;
+                let b = T::lit(2.0) / (norm2 - akk * akk + v0 * v0);
+                assert!(same(fact.rdiag[k], alpha) && same(fact.beta[k], b), "column {k}");
+                for i in 0..M {
+                    assert!(same(fact.v[(i, k)], v[i]), "column {k}, row {i}");
+                }
+                for j in k + 1..N {
+                    let s = dot(&v, &a[j]) * b;
+                    for i in 0..M {
+                        a[j][i] -= s * v[i];
+                    }
+                    for i in 0..=k {
+                        assert!(same(fact.qr[(i, j)], a[j][i]), "R ({i}, {j})");
+                        compared += 1;
+                    }
+                }
+            }
+            compared
+        }
+        let w68 = SMatrix::<f64, 6, 8>::from_fn(|i, j| (((i * 8 + j) * (i * 8 + j) + 1) as f64).sin());
+        let w35 = SMatrix::<f64, 3, 5>::from_fn(|i, j| (((i * 5 + j) * (i * 5 + j) + 2) as f64).cos());
+        let w47 = SMatrix::<f64, 4, 7>::from_fn(|i, j| (((i * 7 + j) * (i * 7 + j) + 3) as f64).sin());
+        // R's entries above the diagonal (15, 3 and 6 per matrix), each
+        // compared after every reflection from its row's on: 35, 4 and 10.
+        let compared =
+            check(&w68) + check(&w68.map(|x| x as f32)) + check(&w35) + check(&w35.map(|x| x as f32));
+        let compared = compared + check(&w47) + check(&w47.map(|x| x as f32));
+        assert_eq!(compared, 2 * (35 + 4 + 10));
+    }
+
     #[test]
     fn q_is_orthogonal_and_the_null_columns_annihilate_w() {
         let w = sample();
