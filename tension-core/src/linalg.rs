@@ -150,19 +150,10 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
             let mut pairs = later.chunks_exact_mut(2);
             for pair in pairs.by_ref() {
                 let (ci, cj) = pair.split_at_mut(1);
-                let (ci, cj) = (&mut ci[0], &mut cj[0]);
-                let si = dot(vk, ci) * b;
-                let sj = dot(vk, cj) * b;
-                for ((c, d), &x) in ci.iter_mut().zip(cj.iter_mut()).zip(vk) {
-                    *c -= si * x;
-                    *d -= sj * x;
-                }
+                reflect_pair(vk, b, &mut ci[0], &mut cj[0]);
             }
             for cj in pairs.into_remainder() {
-                let s = dot(vk, cj) * b;
-                for (c, &x) in cj.iter_mut().zip(vk) {
-                    *c -= s * x;
-                }
+                reflect(vk, b, cj);
             }
             let d = alpha.abs();
             if d > rmax {
@@ -226,14 +217,9 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
 
     /// `x <- Q x = H_1 (H_2 (... H_N x))`.
     fn apply_q(&self, x: &mut SVector<T, M>) {
-        let x_s = x.as_mut_slice();
-        let v_s = self.v.as_slice();
+        let (x_s, v_s) = (x.as_mut_slice(), self.v.as_slice());
         for k in (0..N).rev() {
-            let vk = &v_s[k * M..(k + 1) * M];
-            let s = dot(vk, x_s) * self.beta[k];
-            for (c, &x) in x_s.iter_mut().zip(vk) {
-                *c -= s * x;
-            }
+            reflect(&v_s[k * M..(k + 1) * M], self.beta[k], x_s);
         }
     }
 
@@ -242,13 +228,7 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
     fn apply_q_pair(&self, x: &mut [T; M], y: &mut [T; M]) {
         let v_s = self.v.as_slice();
         for k in (0..N).rev() {
-            let vk = &v_s[k * M..(k + 1) * M];
-            let sx = dot(vk, x) * self.beta[k];
-            let sy = dot(vk, y) * self.beta[k];
-            for ((a, b), &v) in x.iter_mut().zip(y.iter_mut()).zip(vk) {
-                *a -= sx * v;
-                *b -= sy * v;
-            }
+            reflect_pair(&v_s[k * M..(k + 1) * M], self.beta[k], x, y);
         }
     }
 
@@ -331,6 +311,26 @@ impl<T: Real, const N: usize, const M: usize> WrenchFactorization<T, N, M> {
     /// The degree of redundancy `r = M - N`.
     pub const fn redundancy(&self) -> usize {
         M - N
+    }
+}
+
+/// `x <- H x` for the reflection `H = I - beta v v^T`: `x - (beta v . x) v`.
+#[inline(always)]
+fn reflect<T: Real>(v: &[T], beta: T, x: &mut [T]) {
+    let s = dot(v, x) * beta;
+    for (c, &vi) in x.iter_mut().zip(v) {
+        *c -= s * vi;
+    }
+}
+
+/// [`reflect`] on `x` and `y` together (each reflection's vector read
+/// once for both): per column the same operations in the same order.
+#[inline(always)]
+fn reflect_pair<T: Real>(v: &[T], beta: T, x: &mut [T], y: &mut [T]) {
+    let (sx, sy) = (dot(v, x) * beta, dot(v, y) * beta);
+    for ((a, b), &vi) in x.iter_mut().zip(y.iter_mut()).zip(v) {
+        *a -= sx * vi;
+        *b -= sy * vi;
     }
 }
 
