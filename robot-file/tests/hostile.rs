@@ -135,6 +135,12 @@ fn exercise<T: Real, const N: usize, const M: usize>(file: &RobotFile, case: &st
     }
 }
 
+/// [`exercise`] in `f64` and in `f32`.
+fn in_both<const N: usize, const M: usize>(file: &RobotFile, case: &str, tally: &mut Tally) {
+    exercise::<f64, N, M>(file, case, tally);
+    exercise::<f32, N, M>(file, case, tally);
+}
+
 /// Parses `text` and checks whatever comes out.
 fn check(text: &str, case: &str, tally: &mut Tally) {
     tally.cases += 1;
@@ -150,22 +156,10 @@ fn check(text: &str, case: &str, tally: &mut Tally) {
             let _ = (file.identity(), file.canonical_bytes());
             tally.accepted += 1;
             match (file.dof(), file.cables.len()) {
-                (6, 8) => {
-                    exercise::<f64, 6, 8>(&file, case, tally);
-                    exercise::<f32, 6, 8>(&file, case, tally);
-                }
-                (6, 10) => {
-                    exercise::<f64, 6, 10>(&file, case, tally);
-                    exercise::<f32, 6, 10>(&file, case, tally);
-                }
-                (3, 5) => {
-                    exercise::<f64, 3, 5>(&file, case, tally);
-                    exercise::<f32, 3, 5>(&file, case, tally);
-                }
-                (2, 4) => {
-                    exercise::<f64, 2, 4>(&file, case, tally);
-                    exercise::<f32, 2, 4>(&file, case, tally);
-                }
+                (6, 8) => in_both::<6, 8>(&file, case, tally),
+                (6, 10) => in_both::<6, 10>(&file, case, tally),
+                (3, 5) => in_both::<3, 5>(&file, case, tally),
+                (2, 4) => in_both::<2, 4>(&file, case, tally),
                 shape => panic!("{case}: no shipped robot has shape {shape:?}"),
             }
         }
