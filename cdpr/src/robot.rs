@@ -10,7 +10,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::SVector;
 use robot_file::{RobotFile, RobotFileError, RobotFileErrorKind};
 use tension_core::{
-    Error, ForwardError, ForwardSettings, Method, Motion, Pose, Robot, RobotKind, TensionSolver, Winch,
+    methods::Workspace, Error, ForwardError, ForwardSettings, Method, Motion, Pose, Robot, RobotKind,
+    TensionSolver, Winch,
 };
 
 use crate::CliError;
@@ -219,6 +220,10 @@ struct Shaped<const N: usize, const M: usize> {
 struct ShapedSolver<const N: usize, const M: usize> {
     robot: Robot<f64, N, M>,
     solver: TensionSolver<f64, M>,
+    /// Kept from pose to pose, as a control loop keeps it: the polygon's
+    /// room is not made anew for each pose, and the walk tries the last
+    /// polygon's edges first.
+    scratch: Workspace<f64, N, M>,
 }
 
 impl<const N: usize, const M: usize> Model for Shaped<N, M> {
@@ -238,7 +243,11 @@ impl<const N: usize, const M: usize> Model for Shaped<N, M> {
         self.robot.platform().mass
     }
     fn solver(&self, method: Method) -> Box<dyn ShapeSolver> {
-        Box::new(ShapedSolver { robot: self.robot.clone(), solver: TensionSolver::<f64, M>::new(method) })
+        Box::new(ShapedSolver {
+            robot: self.robot.clone(),
+            solver: TensionSolver::<f64, M>::new(method),
+            scratch: Workspace::new(),
+        })
     }
     fn forward(&self, lengths: &[f64], warm: Option<&[f64]>) -> ForwardRow {
         if lengths.len() != M || warm.is_some_and(|w| w.len() != N) {
@@ -326,7 +335,7 @@ impl<const N: usize, const M: usize> ShapeSolver for ShapedSolver<N, M> {
         let (pose, extra, motion) = query_parts(&self.robot, q)?;
         let w = self.robot.wrench_matrix(&pose)?;
         let f = self.robot.required_wrench(&pose, &extra, motion.as_ref())?;
-        let sol = self.solver.solve(&w, &f, self.robot.limits())?;
+        let sol = self.solver.solve_with(&mut self.scratch, &w, &f, self.robot.limits())?;
         out.copy_from_slice(sol.tensions.as_slice());
         Ok(sol.robustness)
     }

@@ -23,7 +23,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::{
     linalg::WrenchFactorization,
-    polygon::{ActivePair, VertexList},
+    polygon::{ActivePair, VertexList, WalkHints},
     tension_polygon::TensionPolygon,
     Error, Real, Solution, TensionLimits,
 };
@@ -92,6 +92,8 @@ impl<T: Real, const M: usize> Default for PreviousCycle<T, M> {
 /// empty one ([`Self::lazy`]) that only a polygon method fills.
 pub struct PolygonWork<T: Real, const N: usize, const M: usize> {
     room: Option<PolygonRoom<T, N, M>>,
+    /// What the room's vertex list starts with when it is made here.
+    hints: WalkHints<M>,
 }
 
 /// The polygon and its vertices, once made.
@@ -101,8 +103,8 @@ pub(crate) struct PolygonRoom<T: Real, const N: usize, const M: usize> {
 }
 
 impl<T: Real, const N: usize, const M: usize> PolygonRoom<T, N, M> {
-    fn new() -> Self {
-        Self { polygon: TensionPolygon::zeroed(), vertices: VertexList::new() }
+    fn new(hints: WalkHints<M>) -> Self {
+        Self { polygon: TensionPolygon::zeroed(), vertices: VertexList::with_hints(hints) }
     }
 }
 
@@ -110,18 +112,30 @@ impl<T: Real, const N: usize, const M: usize> PolygonWork<T, N, M> {
     /// With the room made (what a control loop keeps: no call ever makes
     /// it).
     pub fn new() -> Self {
-        Self { room: Some(PolygonRoom::new()) }
+        Self { room: Some(PolygonRoom::new(WalkHints::NONE)), hints: WalkHints::NONE }
     }
 
     /// Without it: the first polygon method to run makes it (the methods
     /// without a polygon, called once, clear nothing).
     pub fn lazy() -> Self {
-        Self { room: None }
+        Self::lazy_hinted(WalkHints::NONE)
+    }
+
+    /// [`Self::lazy`], the room's walk to try `hints` (a solver's last
+    /// walk's: [`Self::hints`]) when it is made.
+    pub fn lazy_hinted(hints: WalkHints<M>) -> Self {
+        Self { room: None, hints }
+    }
+
+    /// The last walk's successors, when a polygon method made the room.
+    pub fn hints(&self) -> Option<WalkHints<M>> {
+        self.room.as_ref().map(|room| room.vertices.hints())
     }
 
     /// The room, made if it was not.
     pub(crate) fn room(&mut self) -> &mut PolygonRoom<T, N, M> {
-        self.room.get_or_insert_with(PolygonRoom::new)
+        let hints = self.hints;
+        self.room.get_or_insert_with(|| PolygonRoom::new(hints))
     }
 }
 
@@ -147,9 +161,10 @@ impl<T: Real, const N: usize, const M: usize> Workspace<T, N, M> {
     }
 
     /// Empty, the polygon's room made only if a polygon method runs
-    /// ([`PolygonWork::lazy`]): for a one-off call.
-    fn lazy() -> Self {
-        Self { factorization: WrenchFactorization::zeroed(), polygon: PolygonWork::lazy() }
+    /// ([`PolygonWork::lazy_hinted`], its walk trying `hints`): for a
+    /// one-off call.
+    pub(crate) fn lazy(hints: WalkHints<M>) -> Self {
+        Self { factorization: WrenchFactorization::zeroed(), polygon: PolygonWork::lazy_hinted(hints) }
     }
 }
 
@@ -182,7 +197,7 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
 ) -> Result<Solution<T, M>, Error> {
     // Filled in place: no factorisation moved through a `Result`; the
     // polygon's room is made only if the method has a polygon.
-    let mut workspace = Workspace::lazy();
+    let mut workspace = Workspace::lazy(WalkHints::NONE);
     solve_with(method, &mut workspace, w, f, limits, previous)
 }
 

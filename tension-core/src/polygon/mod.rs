@@ -68,33 +68,35 @@ pub struct Vertex<T: Real> {
 
 /// Up to `4 M` vertices without allocation (a convex polygon cut from `2 M`
 /// half-planes has at most `2 M`; the brute force may see a few more
-/// near-duplicates before merging them), and the last walk's successor of
-/// each line along the boundary (the next cycle's hints,
-/// [`FeasiblePolygon::walk_into`]).
+/// near-duplicates before merging them), and the last walk's [`WalkHints`]
+/// (the next cycle's, [`FeasiblePolygon::walk_into`]).
 #[derive(Debug, Clone)]
 pub struct VertexList<T: Real, const M: usize> {
     slots: [[Vertex<T>; M]; 4],
     len: usize,
-    /// `[cable][side]`: the line the last walk took after this one
-    /// ([`NO_LINE`] when none has). Kept by [`Self::clear`]: the walk reads
-    /// a line's entry before it writes it.
+    /// Kept by [`Self::clear`]: the walk reads a line's entry before it
+    /// writes it.
+    hints: WalkHints<M>,
+}
+
+/// The line a walk took after each line along the polygon's boundary
+/// (`[cable][side]`; none for a line that was no edge): a walk of the next
+/// cycle's polygon tries each first ([`FeasiblePolygon::walk_into`]). Any
+/// content gives the same answer, bit for bit, as none; the last cycle's
+/// saves most of the walk's tests. Sixteen bytes for eight cables: what a
+/// solver that makes its polygon anew each call carries from one call to
+/// the next ([`crate::TensionSolver::solve`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WalkHints<const M: usize> {
     successor: [[u8; 2]; M],
 }
 
 /// No successor known (a hint of none).
 const NO_LINE: u8 = u8::MAX;
 
-impl<T: Real, const M: usize> VertexList<T, M> {
-    /// An empty list with no successor known.
-    pub fn new() -> Self {
-        let empty = Vertex { point: Vector2::zeros(), lines: (0, 0), error: T::zero() };
-        Self { slots: [[empty; M]; 4], len: 0, successor: [[NO_LINE; 2]; M] }
-    }
-
-    /// Removes every vertex (the successors stay: see [`VertexList`]).
-    pub fn clear(&mut self) {
-        self.len = 0;
-    }
+impl<const M: usize> WalkHints<M> {
+    /// No line's successor known: every step a full one.
+    pub const NONE: Self = Self { successor: [[NO_LINE; 2]; M] };
 
     /// The line the last walk took after line `h` (`2 M` or more: none).
     fn successor(&self, h: usize) -> usize {
@@ -106,6 +108,46 @@ impl<T: Real, const M: usize> VertexList<T, M> {
         if let Some(s) = self.successor.as_flattened_mut().get_mut(h) {
             *s = g as u8;
         }
+    }
+}
+
+impl<const M: usize> Default for WalkHints<M> {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
+
+impl<T: Real, const M: usize> VertexList<T, M> {
+    /// An empty list with no successor known.
+    pub fn new() -> Self {
+        Self::with_hints(WalkHints::NONE)
+    }
+
+    /// An empty list whose next walk tries `hints` (a last walk's, kept by
+    /// its caller: [`Self::hints`]).
+    pub fn with_hints(hints: WalkHints<M>) -> Self {
+        let empty = Vertex { point: Vector2::zeros(), lines: (0, 0), error: T::zero() };
+        Self { slots: [[empty; M]; 4], len: 0, hints }
+    }
+
+    /// The last walk's successors (what the next walk of this list tries).
+    pub fn hints(&self) -> WalkHints<M> {
+        self.hints
+    }
+
+    /// Removes every vertex (the successors stay: see [`VertexList`]).
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// The line the last walk took after line `h` (`2 M` or more: none).
+    fn successor(&self, h: usize) -> usize {
+        self.hints.successor(h)
+    }
+
+    /// Records that the walk took line `g` after line `h`.
+    fn set_successor(&mut self, h: usize, g: usize) {
+        self.hints.set_successor(h, g);
     }
 
     /// Capacity, `4 M`.
