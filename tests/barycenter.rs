@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use proptest::{prelude::*, test_runner::TestRunner};
 use tension_core::{
-    polygon::FeasiblePolygon, solve, ActivePair, Error, Method, PreviousCycle, TensionLimits, WarmStart,
+    polygon::FeasiblePolygon, solve, ActivePair, Error, Method, PreviousCycle, Real, TensionLimits, WarmStart,
 };
 
 /// Relative agreement of two tension vectors against the tension scale.
@@ -271,6 +271,40 @@ fn lost_warm_start_falls_back_to_cold_search() {
     assert!(!warm.warm_start_held);
     let cold = poly.walk(None).unwrap();
     assert!((warm.centroid - cold.centroid).amax() < 1e-12);
+}
+
+/// The warm pair's crossing is the first vertex when every cable's
+/// half-planes hold there within the slack tolerance widened by the
+/// crossing's error bound (`tol + |n_k| error`, `error = tol (|n_1| +
+/// |n_2|) / |det|`): a third cable that cuts the crossing off by 0.9 of that
+/// keeps the warm start, by 1.1 of it loses it (the cold search then
+/// starts), in both precisions and at three scales.
+#[test]
+fn warm_start_holds_exactly_within_the_widened_tolerance() {
+    fn case<T: Real>(scale: f64, fraction: f64) -> bool {
+        // x <= 1 (cable 0's maximum) and y <= 1 (cable 1's) cross at (1, 1)
+        // with |det| = 1; cable 2's row (1, 1) has n . p = 2 there.
+        let rows = [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]].map(|[x, y]| Vector2::new(T::lit(x), T::lit(y)));
+        let at = |x: f64| T::lit(x * scale);
+        let lower = [-10.0, -10.0, -10.0].map(at);
+        // The tolerance scales with the largest bound (10 scale, a lower one).
+        let tol = FeasiblePolygon::<T, 3>::new(rows, lower, [1.0, 1.0, 2.0].map(at)).unwrap().tolerance();
+        let widened = tol + T::lit(2f64.sqrt()) * (T::lit(2.0) * tol);
+        let upper = [at(1.0), at(1.0), at(2.0) - T::lit(fraction) * widened];
+        let poly = FeasiblePolygon::<T, 3>::new(rows, lower, upper).unwrap();
+        let pair = ActivePair { first: (0, tension_core::Bound::Max), second: (1, tension_core::Bound::Max) };
+        let warm = poly.walk(Some(pair)).unwrap();
+        let cold = poly.walk(None).unwrap();
+        assert_eq!(warm.vertices.len(), cold.vertices.len());
+        warm.warm_start_held
+    }
+    let mut cases = 0;
+    for scale in [1.0, 1e-3, 1e4] {
+        assert!(case::<f64>(scale, 0.9) && !case::<f64>(scale, 1.1), "f64, scale {scale}");
+        assert!(case::<f32>(scale, 0.9) && !case::<f32>(scale, 1.1), "f32, scale {scale}");
+        cases += 4;
+    }
+    assert_eq!(cases, 12);
 }
 
 #[test]

@@ -40,19 +40,19 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             let h1 = line_index(pair.first);
             let h2 = line_index(pair.second);
             if h1 < 2 * M && h2 < 2 * M {
-                start = self.vertex_of(h1, h2);
+                start = self.warm_vertex(h1, h2);
                 held = start.is_some();
             }
         }
-        let start = match start {
-            Some(v) => v,
-            None => self.first_vertex().ok_or(Error::Infeasible)?,
+        let (start, known) = match start {
+            Some(Start { vertex, active, margin }) => (vertex, Some((active, margin))),
+            None => (self.first_vertex().ok_or(Error::Infeasible)?, None),
         };
         // The caller's list still holds its last walk's successors (a control
         // loop's: the previous cycle's): each line's is tried first, when
         // the warm start from it held (after a lost one the polygon has
         // changed too much for its lines to be worth a try).
-        match self.walk_from(start, vertices, held) {
+        match self.walk_from(start, known, vertices, held) {
             Some((robust_pair, hinted, sums)) => {
                 self.finish(vertices, Some(sums), Some(robust_pair), held, hinted)
             }
@@ -83,9 +83,19 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     fn walk_from(
         &self,
         start: Vertex<T>,
+        known: Option<(u64, T)>,
         vertices: &mut VertexList<T, M>,
         hints: bool,
     ) -> Option<(ActivePair, usize, Shoelace<T>)> {
+        // The first vertex's active lines and margin ([`Start`]), unless the
+        // warm start's check computed them.
+        let (active, mut best_margin) = match known {
+            Some(known) => known,
+            None => {
+                let s = self.start_at::<false>(start)?;
+                (s.active, s.margin)
+            }
+        };
         vertices.clear();
         vertices.push(start).ok()?;
         // The centroid's sums, each vertex added as it is found.
@@ -95,27 +105,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         // no test for a cable left out.
         let u = &self.unit;
         // Outgoing edge at the first vertex: an active line along which no
-        // other active half-plane is violated (Sect. 2.2.2, Eqs. 10-11). The
-        // two lines that define the vertex are active by construction (their
-        // computed slack can exceed the tolerance when they are nearly parallel).
-        let (l0, l1) = (start.lines.0 as usize, start.lines.1 as usize);
-        let mut active: u64 = (1 << l0) | (1 << l1);
-        // Margin of the first vertex: its smallest slack to another cable's lines.
-        let mut best_margin = T::max_value()?;
-        let p = start.point;
-        for k in 0..M {
-            let nv = u.ux[k] * p.x + u.uy[k] * p.y;
-            let (s_lo, s_hi) = (nv - u.lo[k], u.hi[k] - nv);
-            if s_lo.abs() <= u.tol[k] {
-                active |= 1 << (2 * k);
-            }
-            if s_hi.abs() <= u.tol[k] {
-                active |= 1 << (2 * k + 1);
-            }
-            if k != l0 / 2 && k != l1 / 2 {
-                best_margin = min(best_margin, min(s_lo, s_hi));
-            }
-        }
+        // other active half-plane is violated (Sect. 2.2.2, Eqs. 10-11).
         let mut edge = None;
         let mut candidates = active;
         for _ in 0..2 * M {
@@ -368,6 +358,57 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         None
     }
 
+    /// The crossing of lines `h1` and `h2` as the first vertex when it
+    /// satisfies every half-plane within the slack tolerance widened by its
+    /// error bound (as [`Self::vertex_of`] checks it, on the unit lines:
+    /// `u_k . p - lo_k >= -(tol_k + error)`), with its active lines and
+    /// margin ([`Start`]) from the same slacks, in one pass over the cables.
+    fn warm_vertex(&self, h1: usize, h2: usize) -> Option<Start<T>> {
+        if h1 / 2 == h2 / 2 || !self.is_used(h1) || !self.is_used(h2) {
+            return None;
+        }
+        let (p, error) = self.intersect(h1, h2)?;
+        self.start_at::<true>(Vertex { point: p, lines: (h1 as u8, h2 as u8), error })
+    }
+
+    /// The first vertex's active lines and margin ([`Start`]); with `CHECK`,
+    /// `None` as soon as a cable's half-plane is violated by more than the
+    /// slack tolerance plus the vertex's error bound ([`Self::warm_vertex`];
+    /// without, a vertex the cold search found).
+    #[inline(always)]
+    fn start_at<const CHECK: bool>(&self, vertex: Vertex<T>) -> Option<Start<T>> {
+        let u = &self.unit;
+        let (l0, l1) = (vertex.lines.0 as usize, vertex.lines.1 as usize);
+        // The two lines that define the vertex are active by construction
+        // (their computed slack can exceed the tolerance when they are
+        // nearly parallel).
+        let mut active: u64 = (1 << l0) | (1 << l1);
+        // Its smallest slack to another cable's lines.
+        let mut margin = T::max_value()?;
+        let p = vertex.point;
+        for k in 0..M {
+            let nv = u.ux[k] * p.x + u.uy[k] * p.y;
+            let (s_lo, s_hi) = (nv - u.lo[k], u.hi[k] - nv);
+            if CHECK {
+                // (False for a NaN.)
+                let reach = -(u.tol[k] + vertex.error);
+                if !(s_lo >= reach && s_hi >= reach) {
+                    return None;
+                }
+            }
+            if s_lo.abs() <= u.tol[k] {
+                active |= 1 << (2 * k);
+            }
+            if s_hi.abs() <= u.tol[k] {
+                active |= 1 << (2 * k + 1);
+            }
+            if k != l0 / 2 && k != l1 / 2 {
+                margin = min(margin, min(s_lo, s_hi));
+            }
+        }
+        Some(Start { vertex, active, margin })
+    }
+
     /// The step along edge `h` from `v` (direction `d`) to line `g`, when
     /// the full step of [`Self::walk_from`] would take it: `g`'s cable is
     /// approached on `g`'s side beyond the parallel threshold, the two lines'
@@ -547,4 +588,13 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 #[inline]
 fn pc_line(prev: Option<usize>) -> u8 {
     prev.map_or(0, |p| p as u8)
+}
+
+/// The walk's first vertex, the lines active there (a bit per line `2 k +
+/// side`: its two and any other within the slack tolerance) and its margin
+/// (its smallest slack to the lines of the cables that do not define it).
+struct Start<T: Real> {
+    vertex: Vertex<T>,
+    active: u64,
+    margin: T,
 }
