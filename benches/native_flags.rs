@@ -11,7 +11,9 @@
 //! and precision (`f64`, `f32`): the kinematics (`Robot::wrench_problem`:
 //! `W` and `f` of a pose) and the methods a controller runs (barycenter
 //! warm and cold, closed form, improved closed form, puncture, analytic
-//! centre warm, minimum 2-norm), each the median time per call over 1000
+//! centre warm, minimum 2-norm, through `TensionSolver::solve`; the
+//! barycenter warm and the closed form also through `solve_with` and a kept
+//! `Workspace`, as a control loop and `cdpr` call them), each the median time per call over 1000
 //! poses of a smooth 1 kHz path, 20 rounds. Criterion measures the same
 //! calls in the default build (`cargo bench --bench native_flags -- NAME`
 //! to filter).
@@ -26,7 +28,7 @@ use cdpr_integration_tests::{
 };
 use criterion::Criterion;
 use nalgebra::SVector;
-use tension_core::{Method, Real, Robot, TensionSolver};
+use tension_core::{methods::Workspace, Method, Real, Robot, TensionSolver};
 
 /// Set in the native copy's environment: it prints its rows and exits.
 const CHILD: &str = "CDPR_NATIVE_FLAGS_CHILD";
@@ -34,15 +36,19 @@ const CHILD: &str = "CDPR_NATIVE_FLAGS_CHILD";
 /// Rounds over the 1000 poses for each median.
 const ROUNDS: usize = 20;
 
-/// The methods timed, warm (the solver's carried state) or cold.
-const METHODS: [(Method, bool); 7] = [
-    (Method::Barycenter, true),
-    (Method::Barycenter, false),
-    (Method::ClosedForm, true),
-    (Method::ImprovedClosedForm, true),
-    (Method::Puncture, true),
-    (Method::AnalyticCentre, true),
-    (Method::Min2Norm, true),
+/// The methods timed, warm (the solver's carried state) or cold, through
+/// `TensionSolver::solve` (the polygon's room made anew each call) or, as a
+/// control loop calls them, `solve_with` and a kept `Workspace`.
+const METHODS: [(Method, bool, bool); 9] = [
+    (Method::Barycenter, true, false),
+    (Method::Barycenter, true, true),
+    (Method::Barycenter, false, false),
+    (Method::ClosedForm, true, false),
+    (Method::ClosedForm, true, true),
+    (Method::ImprovedClosedForm, true, false),
+    (Method::Puncture, true, false),
+    (Method::AnalyticCentre, true, false),
+    (Method::Min2Norm, true, false),
 ];
 
 /// One row of a build's table: table (robot and precision), call, median
@@ -67,15 +73,19 @@ fn timed<'a, T: Real>(robot: &'a Robot<T, 6, 8>, path: &'a [SVector<T, 6>]) -> V
             black_box(robot.wrench_problem(black_box(&path[k]), &SVector::zeros(), None).ok());
         }),
     )];
-    for (method, warm) in METHODS {
+    for (method, warm, kept) in METHODS {
         let problems = problems.clone();
         let mut solver = TensionSolver::<T, 8>::new(method);
+        let mut scratch = Box::new(Workspace::<T, 6, 8>::new());
         let limits = *robot.limits();
-        let name = if method.warm_starts() {
+        let mut name = if method.warm_starts() {
             format!("{} ({})", method.name(), if warm { "warm" } else { "cold" })
         } else {
             method.name().to_string()
         };
+        if kept {
+            name.push_str(", kept workspace");
+        }
         all.push((
             name,
             Box::new(move |k| {
@@ -83,7 +93,11 @@ fn timed<'a, T: Real>(robot: &'a Robot<T, 6, 8>, path: &'a [SVector<T, 6>]) -> V
                     solver.reset();
                 }
                 let (w, f) = &problems[k];
-                black_box(solver.solve(w, f, &limits).ok());
+                if kept {
+                    black_box(solver.solve_with(&mut scratch, w, f, &limits).ok());
+                } else {
+                    black_box(solver.solve(w, f, &limits).ok());
+                }
             }),
         ));
     }
