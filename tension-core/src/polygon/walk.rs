@@ -389,21 +389,27 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         for k in 0..M {
             let nv = u.ux[k] * p.x + u.uy[k] * p.y;
             let (s_lo, s_hi) = (nv - u.lo[k], u.hi[k] - nv);
+            // The slack to the nearer limit: one comparison each for the
+            // check, the active lines and the margin (the limits are
+            // finite, so the two slacks are NaN together or not at all).
+            let near = min(s_lo, s_hi);
             if CHECK {
                 // (False for a NaN.)
-                let reach = -(u.tol[k] + vertex.error);
-                if !(s_lo >= reach && s_hi >= reach) {
+                let holds = near >= -(u.tol[k] + vertex.error);
+                if !holds {
                     return None;
                 }
             }
-            if s_lo.abs() <= u.tol[k] {
-                active |= 1 << (2 * k);
-            }
-            if s_hi.abs() <= u.tol[k] {
-                active |= 1 << (2 * k + 1);
+            if near <= u.tol[k] {
+                if s_lo.abs() <= u.tol[k] {
+                    active |= 1 << (2 * k);
+                }
+                if s_hi.abs() <= u.tol[k] {
+                    active |= 1 << (2 * k + 1);
+                }
             }
             if k != l0 / 2 && k != l1 / 2 {
-                margin = min(margin, min(s_lo, s_hi));
+                margin = min(margin, near);
             }
         }
         Some(Start { vertex, active, margin })
