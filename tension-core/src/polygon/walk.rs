@@ -92,7 +92,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let (active, mut best_margin) = match known {
             Some(known) => known,
             None => {
-                let s = self.start_at::<false>(start)?;
+                let s = self.start_at(start)?;
                 (s.active, s.margin)
             }
         };
@@ -362,21 +362,30 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// satisfies every half-plane within the slack tolerance widened by its
     /// error bound (as [`Self::vertex_of`] checks it, on the unit lines:
     /// `u_k . p - lo_k >= -(tol_k + error)`), with its active lines and
-    /// margin ([`Start`]) from the same slacks, in one pass over the cables.
+    /// margin ([`Start`]). The check stops at the first cable that rejects
+    /// the crossing (a lost warm start then costs the cold search no more
+    /// than it must); a held one's slacks are taken again for the rest.
     fn warm_vertex(&self, h1: usize, h2: usize) -> Option<Start<T>> {
         if h1 / 2 == h2 / 2 || !self.is_used(h1) || !self.is_used(h2) {
             return None;
         }
         let (p, error) = self.intersect(h1, h2)?;
-        self.start_at::<true>(Vertex { point: p, lines: (h1 as u8, h2 as u8), error })
+        let u = &self.unit;
+        for k in 0..M {
+            let nv = u.ux[k] * p.x + u.uy[k] * p.y;
+            // The slack to the nearer limit (the limits are finite, so the
+            // two slacks are NaN together or not at all; false for a NaN).
+            let holds = min(nv - u.lo[k], u.hi[k] - nv) >= -(u.tol[k] + error);
+            if !holds {
+                return None;
+            }
+        }
+        self.start_at(Vertex { point: p, lines: (h1 as u8, h2 as u8), error })
     }
 
-    /// The first vertex's active lines and margin ([`Start`]); with `CHECK`,
-    /// `None` as soon as a cable's half-plane is violated by more than the
-    /// slack tolerance plus the vertex's error bound ([`Self::warm_vertex`];
-    /// without, a vertex the cold search found).
+    /// The first vertex's active lines and margin ([`Start`]).
     #[inline(always)]
-    fn start_at<const CHECK: bool>(&self, vertex: Vertex<T>) -> Option<Start<T>> {
+    fn start_at(&self, vertex: Vertex<T>) -> Option<Start<T>> {
         let u = &self.unit;
         let (l0, l1) = (vertex.lines.0 as usize, vertex.lines.1 as usize);
         // The two lines that define the vertex are active by construction
@@ -389,17 +398,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         for k in 0..M {
             let nv = u.ux[k] * p.x + u.uy[k] * p.y;
             let (s_lo, s_hi) = (nv - u.lo[k], u.hi[k] - nv);
-            // The slack to the nearer limit: one comparison each for the
-            // check, the active lines and the margin (the limits are
-            // finite, so the two slacks are NaN together or not at all).
+            // The slack to the nearer limit: one comparison for the margin,
+            // and the two lines tested for activity only when it is within
+            // the tolerance (neither is otherwise).
             let near = min(s_lo, s_hi);
-            if CHECK {
-                // (False for a NaN.)
-                let holds = near >= -(u.tol[k] + vertex.error);
-                if !holds {
-                    return None;
-                }
-            }
             if near <= u.tol[k] {
                 if s_lo.abs() <= u.tol[k] {
                     active |= 1 << (2 * k);
