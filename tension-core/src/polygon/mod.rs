@@ -361,25 +361,25 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         // as parallel: their crossing is lost in rounding, and the sliver
         // between them is too thin to move the centroid.
         let parallel = tolerance::parallel::<T>();
+        // Per cable, in one pass: the limits' order, whether its row counts
+        // (a negligible one's tension is fixed by equilibrium: checked
+        // against its limits and left out), and its unit line.
+        let big = T::max_value().unwrap_or_else(T::one);
+        let mut tol_max = T::zero();
         for k in 0..M {
             if self.lower[k] > self.upper[k] {
                 return Err(Error::InvalidLimits);
             }
-            self.used[k] = true;
-            if self.norms[k] <= row_floor {
-                if self.lower[k] > tol || self.upper[k] < -tol {
-                    return Err(Error::Infeasible);
-                }
-                self.used[k] = false;
+            let n = self.norms[k];
+            let negligible = n <= row_floor;
+            if negligible && (self.lower[k] > tol || self.upper[k] < -tol) {
+                return Err(Error::Infeasible);
             }
-            self.ptol[k] = parallel * self.norms[k];
-        }
-        let big = T::max_value().unwrap_or_else(T::one);
-        let mut tol_max = T::zero();
-        for k in 0..M {
+            self.used[k] = !negligible;
+            self.ptol[k] = parallel * n;
             let u = &mut self.unit;
-            if self.used[k] {
-                let inv = T::one() / self.norms[k];
+            if !negligible {
+                let inv = T::one() / n;
                 u.ux[k] = self.rows[k].x * inv;
                 u.uy[k] = self.rows[k].y * inv;
                 u.lo[k] = self.lower[k] * inv;
