@@ -36,19 +36,32 @@ const CHILD: &str = "CDPR_NATIVE_FLAGS_CHILD";
 /// Rounds over the 1000 poses for each median.
 const ROUNDS: usize = 20;
 
-/// The methods timed, warm (the solver's carried state) or cold, through
-/// `TensionSolver::solve` (the polygon's room made anew each call) or, as a
-/// control loop calls them, `solve_with` and a kept `Workspace`.
-const METHODS: [(Method, bool, bool); 9] = [
-    (Method::Barycenter, true, false),
-    (Method::Barycenter, true, true),
-    (Method::Barycenter, false, false),
-    (Method::ClosedForm, true, false),
-    (Method::ClosedForm, true, true),
-    (Method::ImprovedClosedForm, true, false),
-    (Method::Puncture, true, false),
-    (Method::AnalyticCentre, true, false),
-    (Method::Min2Norm, true, false),
+/// One timed method: `warm`, the solver's carried state (or reset before
+/// each call); `kept`, through `solve_with` and a kept `Workspace`, as a
+/// control loop calls it (or through `TensionSolver::solve`, the polygon's
+/// room made anew each call).
+#[derive(Clone, Copy)]
+struct Timing {
+    method: Method,
+    warm: bool,
+    kept: bool,
+}
+
+const fn timing(method: Method, warm: bool, kept: bool) -> Timing {
+    Timing { method, warm, kept }
+}
+
+/// The methods timed.
+const METHODS: [Timing; 9] = [
+    timing(Method::Barycenter, true, false),
+    timing(Method::Barycenter, true, true),
+    timing(Method::Barycenter, false, false),
+    timing(Method::ClosedForm, true, false),
+    timing(Method::ClosedForm, true, true),
+    timing(Method::ImprovedClosedForm, true, false),
+    timing(Method::Puncture, true, false),
+    timing(Method::AnalyticCentre, true, false),
+    timing(Method::Min2Norm, true, false),
 ];
 
 /// One row of a build's table: table (robot and precision), call, median
@@ -73,7 +86,7 @@ fn timed<'a, T: Real>(robot: &'a Robot<T, 6, 8>, path: &'a [SVector<T, 6>]) -> V
             black_box(robot.wrench_problem(black_box(&path[k]), &SVector::zeros(), None).ok());
         }),
     )];
-    for (method, warm, kept) in METHODS {
+    for Timing { method, warm, kept } in METHODS {
         let problems = problems.clone();
         let mut solver = TensionSolver::<T, 8>::new(method);
         let mut scratch = Box::new(Workspace::<T, 6, 8>::new());
