@@ -913,7 +913,7 @@ impl ControlLoop {
                         }
                         SetpointStatus::FeedbackInfeasible
                     }
-                    Ok((c, lengths)) if c.torques.iter().all(|t| t.is_finite()) => {
+                    Ok((c, lengths)) if crate::all_finite(c.torques.iter()) => {
                         self.feedback_scale = (self.feedback_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
                         self.moment_scale = (self.moment_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
                         // The setpoint is feasible whatever the estimate:

@@ -342,7 +342,7 @@ impl TaskPid {
         scale: [f32; 2],
         prediction: &Prediction,
     ) -> Result<Wrench, Error> {
-        if !error.iter().chain(rates.iter()).chain(rc.iter()).all(|v| v.is_finite()) || !dt.is_finite() {
+        if !crate::all_finite(error.iter().chain(rates.iter()).chain(rc.iter())) || !dt.is_finite() {
             return Err(Error::NonFinite);
         }
         let accel: [f32; 6] = core::array::from_fn(|k| self.output[k] * prediction.inv_mass[k]);

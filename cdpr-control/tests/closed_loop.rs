@@ -457,6 +457,26 @@ fn the_fused_kinematics_are_tension_cores() {
         acceleration: Pose6::zeros(),
     };
     assert_eq!(control.controller().kinematics(&nan).unwrap_err(), tension_core::Error::NonFinite);
+    // Every one of the setpoint's 18 numbers NaN or infinite, the others a
+    // pose the kinematics accepts: refused as non-finite.
+    let good = cdpr_control::Setpoint { pose: Pose6::from([0.0, 0.0, 1.9, 0.0, 0.0, 0.0]), ..nan };
+    assert!(control.controller().kinematics(&good).is_ok());
+    let mut refused = 0;
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        for part in 0..3 {
+            for i in 0..6 {
+                let mut s = good;
+                [&mut s.pose, &mut s.velocity, &mut s.acceleration][part][i] = bad;
+                assert_eq!(
+                    control.controller().kinematics(&s).unwrap_err(),
+                    tension_core::Error::NonFinite,
+                    "{bad} in part {part}, entry {i}"
+                );
+                refused += 1;
+            }
+        }
+    }
+    assert_eq!(refused, 54);
 }
 
 #[test]
