@@ -913,7 +913,7 @@ impl ControlLoop {
                         }
                         SetpointStatus::FeedbackInfeasible
                     }
-                    Ok((c, lengths)) if crate::all_finite(c.torques.iter()) => {
+                    Ok((c, lengths)) if tension_core::all_finite(c.torques.iter().copied()) => {
                         self.feedback_scale = (self.feedback_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
                         self.moment_scale = (self.moment_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
                         // The setpoint is feasible whatever the estimate:

@@ -283,7 +283,7 @@ impl<const M: usize> Controller<M> {
             };
             *o = (fr.coulomb * tanh + fr.viscous * speed) * ratio;
         }
-        if crate::all_finite(out.iter()) {
+        if tension_core::all_finite(out.iter().copied()) {
             Ok(out)
         } else {
             Err(Error::NonFinite)
@@ -417,7 +417,7 @@ impl<const M: usize> Controller<M> {
     /// them). Errors: [`Error::NonFinite`], [`Error::DegenerateCable`].
     pub fn kinematics(&self, setpoint: &Setpoint) -> Result<SetpointKinematics<M>, Error> {
         let (x, v, a) = (&setpoint.pose, &setpoint.velocity, &setpoint.acceleration);
-        if !crate::all_finite(x.iter().chain(v.iter()).chain(a.iter())) {
+        if !tension_core::all_finite(x.iter().chain(v.iter()).chain(a.iter()).copied()) {
             return Err(Error::NonFinite);
         }
         let trig = Trig::of(x);
@@ -471,7 +471,7 @@ impl<const M: usize> Controller<M> {
         let iw_omega = rot * (pf.inertia * (rt * omega));
         let moment = rc.cross(&force) - (iw_alpha + omega.cross(&iw_omega));
         let f = -Wrench::new(force.x, force.y, force.z, moment.x, moment.y, moment.z);
-        if !crate::all_finite(f.iter()) {
+        if !tension_core::all_finite(f.iter().copied()) {
             return Err(Error::NonFinite);
         }
         Ok(SetpointKinematics { lengths, w, f, trig, omega })

@@ -342,7 +342,9 @@ impl TaskPid {
         scale: [f32; 2],
         prediction: &Prediction,
     ) -> Result<Wrench, Error> {
-        if !crate::all_finite(error.iter().chain(rates.iter()).chain(rc.iter())) || !dt.is_finite() {
+        if !tension_core::all_finite(error.iter().chain(rates.iter()).chain(rc.iter()).copied())
+            || !dt.is_finite()
+        {
             return Err(Error::NonFinite);
         }
         let accel: [f32; 6] = core::array::from_fn(|k| self.output[k] * prediction.inv_mass[k]);

@@ -79,35 +79,3 @@ impl TickCounter for NoClock {
         0
     }
 }
-
-/// `true` when every value is finite: `0 x` is `0` for a finite `x` and NaN
-/// for an infinite or NaN one, so the sum of the `0 x` is zero exactly when
-/// all are finite (a multiply and an add a value, no branch: cheaper on the
-/// Cortex-M4F than a test and a branch per value).
-#[inline]
-pub(crate) fn all_finite<'a>(values: impl IntoIterator<Item = &'a f32>) -> bool {
-    values.into_iter().fold(0.0, |sum, v| sum + v * 0.0) == 0.0
-}
-
-#[cfg(test)]
-mod tests {
-    /// `all_finite` is `all(is_finite)` on finite values of every kind
-    /// (zeros of both signs, subnormals, the largest) and with one NaN or
-    /// infinity at every position.
-    #[test]
-    fn all_finite_is_every_value_finite() {
-        let finite = [0.0, -0.0, 1e-45, -1e-45, 1.0, -3.5, f32::MAX, f32::MIN, 1e-38, 7e37];
-        assert!(super::all_finite(finite.iter()));
-        assert!(super::all_finite([].iter()));
-        let mut refused = 0;
-        for bad in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-            for i in 0..finite.len() {
-                let mut values = finite;
-                values[i] = bad;
-                assert!(!super::all_finite(values.iter()), "{bad} at {i}");
-                refused += 1;
-            }
-        }
-        assert_eq!(refused, 40);
-    }
-}
