@@ -33,6 +33,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         vertices: &mut VertexList<T, M>,
     ) -> Result<PolygonSummary<T>, Error> {
         vertices.clear();
+        vertices.brute_force = true;
         // Lines beyond the mask's 64 bits are all taken.
         let marked = |h: usize| h >= 64 || (lines >> h) & 1 != 0;
         for h1 in 0..2 * M {

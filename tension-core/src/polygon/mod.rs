@@ -77,6 +77,8 @@ pub struct VertexList<T: Real, const M: usize> {
     /// Kept by [`Self::clear`]: the walk reads a line's entry before it
     /// writes it.
     hints: WalkHints<M>,
+    /// Whether the brute force filled the list (see [`Self::by_brute_force`]).
+    brute_force: bool,
 }
 
 /// The line a walk took after each line along the polygon's boundary
@@ -127,7 +129,7 @@ impl<T: Real, const M: usize> VertexList<T, M> {
     /// its caller: [`Self::hints`]).
     pub fn with_hints(hints: WalkHints<M>) -> Self {
         let empty = Vertex { point: Vector2::zeros(), lines: (0, 0), error: T::zero() };
-        Self { slots: [[empty; M]; 4], len: 0, hints }
+        Self { slots: [[empty; M]; 4], len: 0, hints, brute_force: false }
     }
 
     /// The last walk's successors (what the next walk of this list tries).
@@ -138,6 +140,15 @@ impl<T: Real, const M: usize> VertexList<T, M> {
     /// Removes every vertex (the successors stay: see [`VertexList`]).
     pub fn clear(&mut self) {
         self.len = 0;
+        self.brute_force = false;
+    }
+
+    /// Whether the vertices are the brute force's: asked for
+    /// ([`FeasiblePolygon::brute_force_into`]), or the walk's fallback after
+    /// a numerical anomaly (an edge met twice away from its first vertex),
+    /// `O(M^3)` ([`FeasiblePolygon::walk_into`]).
+    pub fn by_brute_force(&self) -> bool {
+        self.brute_force
     }
 
     /// The line the last walk took after line `h` (`2 M` or more: none).
