@@ -456,7 +456,7 @@ fn warm_start_holds_at_rest_including_symmetric_poses() {
 /// step of about 28 800 against the budget's 20 000). These pairs of
 /// consecutive setpoints (`f32`, the board's precision) were found along
 /// random streams of suspended-8 poses: the first four in steps of at most
-/// 2 mm and 2 mrad a cycle (93 such cycles in 4 000 000), the last two in
+/// 2 mm and 4 mrad a cycle (93 such cycles in 4 000 000; 55 in steps of 2 mm and 2 mrad), the last two in
 /// steps up to the link's jump limits (50 mm, 0.1 rad).
 const TWIN_CUT_WARM_STARTS: [([f32; 6], [f32; 6]); 6] = [
     (

@@ -372,7 +372,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// vertex, within that acceptance of the true one. `false`: the walk
     /// has met an anomaly, and the brute force decides. Rare: out of line.
     /// (Suspended-8 in `f32`, along streams of setpoints 2 mm and 2 mrad
-    /// apart: 93 cycles in 4 000 000, each of which cost the board's
+    /// apart: 55 cycles in 4 000 000, each of which cost the board's
     /// solver about 19 000 instructions by the brute force, and about
     /// 7 000 so; `tests/barycenter.rs`.)
     #[inline(never)]
