@@ -452,12 +452,13 @@ fn warm_start_holds_at_rest_including_symmetric_poses() {
 /// the acceptance widened by the crossing's error bound, is a warm start
 /// that holds; the walk then leaves along the outer line and comes back
 /// along the inner one, and meets an edge twice. It used to fall back to
-/// the brute force there, on the board about 20 000 instructions more (a
-/// step of about 28 800 against the budget's 20 000). These pairs of
-/// consecutive setpoints (`f32`, the board's precision) were found along
-/// random streams of suspended-8 poses: the first four in steps of at most
-/// 2 mm and 4 mrad a cycle (93 such cycles in 4 000 000; 55 in steps of 2 mm and 2 mrad), the last two in
-/// steps up to the link's jump limits (50 mm, 0.1 rad).
+/// the brute force there: on the board the solver cost 18 461-21 018
+/// instructions on these cycles (6 786-7 453 now), a step over the budget's
+/// 20 000. These pairs of consecutive setpoints (`f32`, the board's
+/// precision) were found along random streams of suspended-8 poses: the
+/// first four in steps of at most 2 mm and 4 mrad a cycle (93 such cycles
+/// in 4 000 000; 55 in steps of 2 mm and 2 mrad), the last two in steps up
+/// to the link's jump limits (50 mm, 0.1 rad).
 const TWIN_CUT_WARM_STARTS: [([f32; 6], [f32; 6]); 6] = [
     (
         [0.20413625, -0.06659435, 2.3494966, -0.042239513, -0.004367064, -0.06797246],
