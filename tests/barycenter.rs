@@ -447,18 +447,19 @@ fn warm_start_holds_at_rest_including_symmetric_poses() {
 
 /// Suspended-8's cables come in twins (0-4, 1-5, 2-6, 3-7: the frame and
 /// the platform are symmetric under a half turn about z), whose limit lines
-/// in the null space are nearly parallel. A warm pair whose crossing a
-/// twin's line cuts off by more than the slack tolerance, but by less than
-/// the acceptance widened by the crossing's error bound, is a warm start
-/// that holds; the walk then leaves along the outer line and comes back
-/// along the inner one, and meets an edge twice. It used to fall back to
-/// the brute force there: on the board the solver cost 18 461-21 018
-/// instructions on these cycles (6 786-7 453 now), a step over the budget's
-/// 20 000. These pairs of consecutive setpoints (`f32`, the board's
-/// precision) were found along random streams of suspended-8 poses: the
-/// first four in steps of at most 2 mm and 4 mrad a cycle (93 such cycles
-/// in 4 000 000; 55 in steps of 2 mm and 2 mrad), the last two in steps up
-/// to the link's jump limits (50 mm, 0.1 rad).
+/// in the null space are nearly parallel over much of the workspace. The
+/// crossing of a pair of twins' lines has a large error bound, so a warm
+/// pair of twins holds although another cable's line cuts its crossing
+/// off by more than the slack tolerance (here by 2.5 to 74 tolerances, within
+/// the acceptance widened by that bound); the walk from it comes back
+/// round along one of the two lines instead of its first edge, and meets
+/// an edge twice. It used to fall back to the brute force there: on the
+/// board the solver cost 18 461-21 018 instructions on these cycles (6 786-7 453 now),
+/// a step over the budget's 20 000. These pairs of consecutive setpoints
+/// (`f32`, the board's precision) were found along random streams of
+/// suspended-8 poses: the first four in steps of at most 2 mm and 4 mrad a
+/// cycle (93 such cycles in 4 000 000; 55 in steps of 2 mm and 2 mrad), the
+/// last two in steps up to the link's jump limits (50 mm, 0.1 rad).
 const TWIN_CUT_WARM_STARTS: [([f32; 6], [f32; 6]); 6] = [
     (
         [0.20413625, -0.06659435, 2.3494966, -0.042239513, -0.004367064, -0.06797246],

@@ -364,13 +364,14 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// taken (an edge met twice) has in fact come back round: the first
     /// vertex lies on `h`'s line within the tolerance widened by its error
     /// bound (the acceptance it started with). So it does when the first
-    /// vertex was a crossing that a third line cuts off by more than the
-    /// tolerance but less than that (a twin cable's parallel line just
-    /// inside the first edge's, or a sliver at the tolerance's scale): the
-    /// walk leaves along the outer line and returns along the inner one.
-    /// The polygon is then closed by the edge along `h` back to the first
-    /// vertex, within that acceptance of the true one. `false`: the walk
-    /// has met an anomaly, and the brute force decides. Rare: out of line.
+    /// vertex is the crossing of two nearly parallel lines (a pair of twin
+    /// cables', whose crossing has a large error bound) that a third line
+    /// cuts off by more than the tolerance but less than that acceptance:
+    /// the walk comes back round along one of the two lines, not its first
+    /// edge. The polygon is then closed by the edge along `h` back to the
+    /// first vertex, within that acceptance of the true one (the brute
+    /// force accepts the same crossing). `false`: the walk has met an
+    /// anomaly, and the brute force decides. Rare: out of line.
     /// (Suspended-8 in `f32`, along streams of setpoints 2 mm and 2 mrad
     /// apart: 55 cycles in 4 000 000, each of which cost the board's
     /// solver about 19 000 instructions by the brute force, and about
