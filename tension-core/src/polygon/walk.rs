@@ -376,6 +376,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// apart: 55 cycles in 4 000 000, each of which cost the board's
     /// solver about 19 000 instructions by the brute force, and about
     /// 7 000 so; `tests/barycenter.rs`.)
+    #[cold]
     #[inline(never)]
     fn closes_on(&self, h: usize, start: &Vertex<T>) -> bool {
         let u = &self.unit;
