@@ -13,9 +13,9 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// `O(M^3)`, only for lines it cannot rule out), then at most
     /// `2 M` walk steps of `O(M)` each, then the `O(M^2)` choice of the
     /// warm-start vertex. Should rounding make the walk revisit an edge
-    /// other than by coming back round to its first vertex
-    /// (`closes_on`), it falls back to [`Self::brute_force`] (`O(M^3)`
-    /// too).
+    /// other than by coming back round along the line of its first vertices
+    /// (`close_after_revisit`), it falls back to [`Self::brute_force`]
+    /// (`O(M^3)` too).
     pub fn walk(&self, warm: Option<ActivePair>) -> Result<PolygonCentroid<T, M>, Error> {
         let mut vertices = VertexList::new();
         let summary = self.walk_into(warm, &mut vertices)?;
@@ -58,10 +58,30 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             Some((robust_pair, hinted, sums)) => {
                 self.finish(vertices, Some(sums), Some(robust_pair), held, hinted)
             }
-            // An anomaly (an edge met twice away from the first vertex):
-            // every vertex by the pairs of the lines the clipping does not
-            // prove empty (the others hold none).
-            None => self.brute_force_among(self.lines_not_proven_empty(), vertices),
+            None => self.after_anomaly(vertices, held),
+        }
+    }
+
+    /// The polygon after the walk met an anomaly (an edge met twice): closed
+    /// where the walk has come back round ([`Self::close_after_revisit`]),
+    /// or else every vertex by the pairs of the lines the clipping does not
+    /// prove empty (the others hold none). Out of the walk's code.
+    #[inline(never)]
+    fn after_anomaly(&self, vertices: &mut VertexList<T, M>, held: bool) -> Result<PolygonSummary<T>, Error> {
+        if self.close_after_revisit(vertices) {
+            // The next cycle's warm start as the walk picks it: the vertex
+            // farthest from the lines of the cables that do not define it.
+            let big = T::max_value().ok_or(Error::NonFinite)?;
+            let (mut best, mut best_margin) = (vertices.get(0).lines, -big);
+            for v in vertices.iter() {
+                let margin = self.margin_at(&v.point, v.lines.0 as usize / 2, v.lines.1 as usize / 2, big);
+                if margin > best_margin {
+                    (best, best_margin) = (v.lines, margin);
+                }
+            }
+            self.finish(vertices, None, Some(pair_of(best)), held, 0)
+        } else {
+            self.brute_force_among(self.lines_not_proven_empty(), vertices)
         }
     }
 
@@ -193,7 +213,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                     return Some((pair_of(best_lines), hinted_steps, sums));
                 }
                 if visited & (1 << hinted) != 0 {
-                    return self.closes_on(h, &start).then_some((pair_of(best_lines), hinted_steps, sums));
+                    return None;
                 }
                 visited |= 1 << hinted;
                 vertices.push(Vertex { point: w, lines: (h as u8, hinted as u8), error }).ok()?;
@@ -337,7 +357,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 return Some((pair_of(best_lines), hinted_steps, sums));
             }
             if visited & (1 << g) != 0 {
-                return self.closes_on(h, &start).then_some((pair_of(best_lines), hinted_steps, sums));
+                return None;
             }
             visited |= 1 << g;
             let (w, error) = match self.intersect(h, g) {
@@ -360,31 +380,76 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         None
     }
 
-    /// Whether a walk about to leave edge `h` for a line it has already
-    /// taken (an edge met twice) has in fact come back round: the first
-    /// vertex lies on `h`'s line within the tolerance widened by its error
-    /// bound (the acceptance it started with). So it does when the first
-    /// vertex is the crossing of two nearly parallel lines (a pair of twin
-    /// cables', whose crossing has a large error bound) that a third line
-    /// cuts off by more than the tolerance but less than that acceptance:
-    /// the walk comes back round along one of the two lines, not its first
-    /// edge. The polygon is then closed by the edge along `h` back to the
-    /// first vertex, within that acceptance of the true one (the brute
-    /// force accepts the same crossing). `false`: the walk has met an
-    /// anomaly, and the brute force decides. Rare: out of line.
-    /// (Suspended-8 in `f32`, along streams of setpoints 2 mm and 2 mrad
-    /// apart: 55 cycles in 4 000 000, each of which cost the board's
-    /// solver about 19 000 instructions by the brute force, and about
-    /// 7 000 so; `tests/barycenter.rs`.)
-    #[cold]
-    #[inline(never)]
-    fn closes_on(&self, h: usize, start: &Vertex<T>) -> bool {
+    /// After the walk met an edge twice: whether it has in fact come back
+    /// round, and if so the polygon closed in the list. The walk is on the
+    /// list's last edge `h` and was about to take line `g` (the successor
+    /// of `h` the step had just recorded) a second time. It has come back
+    /// round when either
+    /// * the first vertex lies on `h`'s line within the slack tolerance
+    ///   widened by its error bound: the edge along `h` closes the list as
+    ///   it is; or
+    /// * the crossing `w` of `h` and `g` is a vertex ([`Self::vertex_of`]'s
+    ///   check), every vertex before the one at which the walk left `g`
+    ///   lies on `g`'s line within that acceptance (dropping them drops a
+    ///   sliver along `g`), and `w` comes before that vertex along `g` in
+    ///   the walk's direction: the list becomes the vertices from that one
+    ///   to the last, then `w`.
+    ///
+    /// Both happen when the first vertex is the crossing of two nearly
+    /// parallel lines (a pair of twin cables', whose crossing has a large
+    /// error bound; or three lines nearly concurrent there) and the walk
+    /// comes back round along one of them instead of its first edge.
+    /// Otherwise `false` (the list unchanged): the brute force decides.
+    /// Only after an anomaly, out of the walk, which it costs nothing.
+    /// (Along random streams of `f32` setpoints 2 mm and 4 mrad apart, 93
+    /// cycles of suspended-8 and 190 of IPAnema 1 in 4 000 000 met an edge
+    /// twice, and cost the board's solver 18 461-21 018 instructions by the
+    /// brute force: `tests/barycenter.rs`.)
+    fn close_after_revisit(&self, vertices: &mut VertexList<T, M>) -> bool {
+        let n = vertices.len();
+        if n < 2 {
+            return false;
+        }
+        let h = vertices.get(n - 1).lines.1 as usize;
         let u = &self.unit;
-        let k = h / 2;
-        let p = start.point;
-        let nv = u.ux[k] * p.x + u.uy[k] * p.y;
-        let slack = if h % 2 == 1 { u.hi[k] - nv } else { nv - u.lo[k] };
-        slack.abs() <= u.tol[k] + start.error
+        // Back round along `h` itself: the first vertex on `h`'s line, and
+        // the edge along `h` closes the polygon as it is.
+        let first = vertices.get(0);
+        let kh = h / 2;
+        let nv = u.ux[kh] * first.point.x + u.uy[kh] * first.point.y;
+        let slack = if h % 2 == 1 { u.hi[kh] - nv } else { nv - u.lo[kh] };
+        if slack.abs() <= u.tol[kh] + first.error {
+            return true;
+        }
+        let g = vertices.successor(h);
+        // The vertex at which the walk left `g` (arrived along it).
+        let Some(left) = (1..n).find(|&i| vertices.get(i).lines.0 as usize == g) else {
+            return false;
+        };
+        let Some(w) = self.vertex_of(h.min(g), h.max(g)) else {
+            return false;
+        };
+        let k = g / 2;
+        let on_g = |v: &Vertex<T>| {
+            let nv = u.ux[k] * v.point.x + u.uy[k] * v.point.y;
+            let slack = if g % 2 == 1 { u.hi[k] - nv } else { nv - u.lo[k] };
+            slack.abs() <= u.tol[k] + v.error
+        };
+        if !(0..left).all(|i| on_g(&vertices.get(i))) {
+            return false;
+        }
+        let o = self.unit_normal(g);
+        let d = Vector2::new(-o.y, o.x);
+        let next = vertices.get(left);
+        if (next.point - w.point).dot(&d) < -(u.tol[k] + next.error + w.error) {
+            return false;
+        }
+        for i in left..n {
+            vertices.set(i - left, vertices.get(i));
+        }
+        vertices.len = n - left;
+        // In the walk's order: `w` is entered along `h` and left along `g`.
+        vertices.push(Vertex { point: w.point, lines: (h as u8, g as u8), error: w.error }).is_ok()
     }
 
     /// The crossing of lines `h1` and `h2` as the first vertex when it
