@@ -454,8 +454,8 @@ fn warm_start_holds_at_rest_including_symmetric_poses() {
 /// the acceptance widened by that bound); the walk from it comes back
 /// round along one of the two lines instead of its first edge, and meets
 /// an edge twice. It used to fall back to the brute force there: on the
-/// board the solver cost 18 461-21 018 instructions on these cycles (6 786-7 453 now),
-/// a step over the budget's 20 000. These pairs of consecutive setpoints
+/// board the solver cost 18 461-21 018 instructions on these cycles
+/// (7 876-8 436 now), a step over the budget's 20 000. These pairs of consecutive setpoints
 /// (`f32`, the board's precision) were found along random streams of
 /// suspended-8 poses: the first four in steps of at most 2 mm and 4 mrad a
 /// cycle (93 such cycles in 4 000 000; 55 in steps of 2 mm and 2 mrad), the
@@ -487,14 +487,14 @@ const TWIN_CUT_WARM_STARTS: [([f32; 6], [f32; 6]); 6] = [
     ),
 ];
 
-/// IPAnema 1 (`f32`): a pose whose walk, warm from the last pose's or
-/// cold, starts at the crossing of cable 0's and cable 7's upper lines
-/// (nearly parallel, and cable 5's nearly concurrent with them there): the
-/// first step goes nowhere (a zero step to cable 5's line, whose crossing
-/// with cable 0's lies 1.2 beyond), and the walk comes back round along
-/// cable 5's line from the other side. It fell back to the brute force,
-/// which the second rule of the closing now spares. Found along the same
-/// streams (one cycle in 4 000 000).
+/// IPAnema 1 (`f32`): a pose whose warm start from the last pose is lost,
+/// and whose cold search (either way) starts at the crossing of cable 0's
+/// and cable 7's upper lines (nearly parallel, and cable 5's nearly
+/// concurrent with them there): the first step goes nowhere (a zero step
+/// to cable 5's line, whose crossing with cable 0's lies 1.2 beyond), and
+/// the walk comes back round along cable 5's line from the other side. It
+/// fell back to the brute force (the board's solver 29 946 instructions;
+/// 11 049 now). Found along the same streams (one cycle in 4 000 000).
 const NEARLY_CONCURRENT_START: ([f32; 6], [f32; 6]) = (
     [-0.11898832, 0.034393195, 1.0911285, 0.0303877, 0.019621626, -0.027917959],
     [-0.11941954, 0.033974875, 1.0895642, 0.027469987, 0.022603638, -0.024649275],
@@ -583,8 +583,9 @@ fn from_reference(
 /// The cases of [`TWIN_CUT_WARM_STARTS`] and [`NEARLY_CONCURRENT_START`]:
 /// the walk closes the polygon where it comes back round, with no brute
 /// force; the tensions are the `f64` reference's within 3e-3 of the tension
-/// range (1 N of suspended-8's 345; the `f32` brute force on these polygons
-/// is up to 1.7e-3 from it, the closed walk 3e-5).
+/// range (1 N of suspended-8's 345; along 4 000 000 cycles of streams up to
+/// the link's jump limits, the `f32` brute force was up to 5.8e-3 from it
+/// where the walk came back round, the closed walk 1.4e-3).
 #[test]
 fn walks_that_come_back_round_close_without_the_brute_force() {
     let mut checked = 0;
