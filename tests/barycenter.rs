@@ -522,13 +522,23 @@ fn board_walk(
     pose: &[f32; 6],
     warm: Option<ActivePair>,
 ) -> Option<BoardWalk> {
-    use tension_core::{linalg::WrenchFactorization, polygon::VertexList, tension_polygon::TensionPolygon};
+    board_walk_with(robot, pose, warm, &mut tension_core::polygon::VertexList::new())
+}
+
+/// [`board_walk`] with the caller's vertex list, which keeps the last
+/// walk's successors (a control loop's).
+fn board_walk_with(
+    robot: &tension_core::Robot<f32, 6, 8>,
+    pose: &[f32; 6],
+    warm: Option<ActivePair>,
+    vertices: &mut tension_core::polygon::VertexList<f32, 8>,
+) -> Option<BoardWalk> {
+    use tension_core::{linalg::WrenchFactorization, tension_polygon::TensionPolygon};
     let (w, f) = robot.wrench_problem(&SVector::from(*pose), &SVector::zeros(), None).ok()?;
     let mut fact = WrenchFactorization::<f32, 6, 8>::zeroed();
     fact.factor(&w, &[true; 8], 2).ok()?;
     let polygon = TensionPolygon::new(&fact, &f, robot.limits()).ok()?;
-    let mut vertices = VertexList::new();
-    let found = polygon.polygon.walk_into(warm, &mut vertices).ok()?;
+    let found = polygon.polygon.walk_into(warm, vertices).ok()?;
     let cut_off = warm.is_some_and(|pair| {
         // Each line in f64: n_k . lambda = bound (t_min or t_max - t_p).
         let line = |(k, side): (u8, tension_core::Bound)| {
@@ -592,8 +602,14 @@ fn walks_that_come_back_round_close_without_the_brute_force() {
     let robot: tension_core::Robot<f32, 6, 8> = cdpr_integration_tests::shipped_robot("suspended-8");
     let reference: tension_core::Robot<f64, 6, 8> = cdpr_integration_tests::shipped_robot("suspended-8");
     for (before, pose) in TWIN_CUT_WARM_STARTS {
-        let first = board_walk(&robot, &before, None).unwrap();
-        let walk = board_walk(&robot, &pose, Some(first.robust_pair)).unwrap();
+        // As a control loop walks them: one list for both cycles, the
+        // first's successors kept for the second.
+        let mut kept = tension_core::polygon::VertexList::new();
+        let first = board_walk_with(&robot, &before, None, &mut kept).unwrap();
+        let walk = board_walk_with(&robot, &pose, Some(first.robust_pair), &mut kept).unwrap();
+        // With a fresh list, the same answer bit for bit.
+        let fresh = board_walk(&robot, &pose, Some(first.robust_pair)).unwrap();
+        assert_eq!(walk.tensions, fresh.tensions, "{pose:?}");
         assert!(!walk.brute_force, "{pose:?}: the walk fell back to the brute force");
         assert!(walk.held && walk.cut_off, "{pose:?}: the case is no longer a cut-off warm start");
         let error = from_reference(&walk, &f64_reference(&reference, &pose).unwrap(), &reference);
@@ -645,6 +661,8 @@ fn streams_never_fall_back_to_the_brute_force() {
             let mut pose: [f64; 6] =
                 core::array::from_fn(|i| if i < 3 { centre[i] + half[i] * symmetric() } else { 0.0 });
             let mut warm = None;
+            // One list for the stream, as the board keeps it.
+            let mut kept = tension_core::polygon::VertexList::new();
             for _ in 0..200 {
                 for (i, x) in pose.iter_mut().enumerate() {
                     let (size, limit, mid) =
@@ -652,7 +670,7 @@ fn streams_never_fall_back_to_the_brute_force() {
                     *x = (*x + size * symmetric()).clamp(mid - limit, mid + limit);
                 }
                 let pose32 = pose.map(|x| x as f32);
-                let Some(walk) = board_walk(&robot, &pose32, warm) else { continue };
+                let Some(walk) = board_walk_with(&robot, &pose32, warm, &mut kept) else { continue };
                 walks += 1;
                 assert!(
                     !walk.brute_force,
@@ -662,6 +680,9 @@ fn streams_never_fall_back_to_the_brute_force() {
                     held += 1;
                     if walk.cut_off {
                         cut_off += 1;
+                        // The kept successors change nothing, bit for bit.
+                        let fresh = board_walk(&robot, &pose32, warm).unwrap();
+                        assert_eq!(walk.tensions, fresh.tensions, "{name} {pose32:?}");
                         // (At the border the f64 polygon may be empty.)
                         if let Some(t) = f64_reference(&reference, &pose32) {
                             let error = from_reference(&walk, &t, &reference);

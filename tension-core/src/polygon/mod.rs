@@ -79,6 +79,10 @@ pub struct VertexList<T: Real, const M: usize> {
     hints: WalkHints<M>,
     /// Whether the brute force filled the list (see [`Self::by_brute_force`]).
     brute_force: bool,
+    /// The line the walk was about to take a second time when it stopped
+    /// ([`NO_LINE`]: it did not stop so), read after the walk by
+    /// `close_after_revisit`.
+    revisit: u8,
 }
 
 /// The line a walk took after each line along the polygon's boundary
@@ -129,7 +133,7 @@ impl<T: Real, const M: usize> VertexList<T, M> {
     /// its caller: [`Self::hints`]).
     pub fn with_hints(hints: WalkHints<M>) -> Self {
         let empty = Vertex { point: Vector2::zeros(), lines: (0, 0), error: T::zero() };
-        Self { slots: [[empty; M]; 4], len: 0, hints, brute_force: false }
+        Self { slots: [[empty; M]; 4], len: 0, hints, brute_force: false, revisit: NO_LINE }
     }
 
     /// The last walk's successors (what the next walk of this list tries).
@@ -141,6 +145,7 @@ impl<T: Real, const M: usize> VertexList<T, M> {
     pub fn clear(&mut self) {
         self.len = 0;
         self.brute_force = false;
+        self.revisit = NO_LINE;
     }
 
     /// Whether the vertices are the brute force's: asked for

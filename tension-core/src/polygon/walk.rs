@@ -213,6 +213,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                     return Some((pair_of(best_lines), hinted_steps, sums));
                 }
                 if visited & (1 << hinted) != 0 {
+                    vertices.revisit = hinted as u8;
                     return None;
                 }
                 visited |= 1 << hinted;
@@ -357,6 +358,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
                 return Some((pair_of(best_lines), hinted_steps, sums));
             }
             if visited & (1 << g) != 0 {
+                vertices.revisit = g as u8;
                 return None;
             }
             visited |= 1 << g;
@@ -382,9 +384,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
 
     /// After the walk met an edge twice: whether it has in fact come back
     /// round, and if so the polygon closed in the list. The walk is on the
-    /// list's last edge `h` and was about to take line `g` (the successor
-    /// of `h` the step had just recorded) a second time. It has come back
-    /// round when either
+    /// list's last edge `h` and was about to take line `g` a second time
+    /// (the list's record of it: only the walk's revisit writes it, so the
+    /// answer never depends on the successors kept from an earlier walk).
+    /// It has come back round when either
     /// * the first vertex lies on `h`'s line within the slack tolerance
     ///   widened by its error bound: the edge along `h` closes the list as
     ///   it is; or
@@ -406,8 +409,11 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// twice, and cost the board's solver 18 461-21 018 instructions by the
     /// brute force: `tests/barycenter.rs`.)
     fn close_after_revisit(&self, vertices: &mut VertexList<T, M>) -> bool {
+        // The line the walk was about to take again (none: it stopped
+        // otherwise, and nothing is closed).
+        let g = vertices.revisit as usize;
         let n = vertices.len();
-        if n < 2 {
+        if n < 2 || g >= 2 * M {
             return false;
         }
         let h = vertices.get(n - 1).lines.1 as usize;
@@ -421,7 +427,6 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         if slack.abs() <= u.tol[kh] + first.error {
             return true;
         }
-        let g = vertices.successor(h);
         // The vertex at which the walk left `g` (arrived along it).
         let Some(left) = (1..n).find(|&i| vertices.get(i).lines.0 as usize == g) else {
             return false;
