@@ -70,12 +70,15 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     fn after_anomaly(&self, vertices: &mut VertexList<T, M>, held: bool) -> Result<PolygonSummary<T>, Error> {
         if self.close_after_revisit(vertices) {
             // The next cycle's warm start as the walk picks it: the vertex
-            // farthest from the lines of the cables that do not define it.
+            // farthest from the lines of the cables that do not define it,
+            // among those whose lines' crossing can be computed (the next
+            // cycle's check computes it).
             let big = T::max_value().ok_or(Error::NonFinite)?;
             let (mut best, mut best_margin) = (vertices.get(0).lines, -big);
             for v in vertices.iter() {
-                let margin = self.margin_at(&v.point, v.lines.0 as usize / 2, v.lines.1 as usize / 2, big);
-                if margin > best_margin {
+                let (a, b) = (v.lines.0 as usize, v.lines.1 as usize);
+                let margin = self.margin_at(&v.point, a / 2, b / 2, big);
+                if margin > best_margin && self.intersect(a, b).is_some() {
                     (best, best_margin) = (v.lines, margin);
                 }
             }
