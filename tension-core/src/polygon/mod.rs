@@ -150,8 +150,8 @@ impl<T: Real, const M: usize> VertexList<T, M> {
 
     /// Whether the vertices are the brute force's: asked for
     /// ([`FeasiblePolygon::brute_force_into`]), or the walk's fallback after
-    /// a numerical anomaly (an edge met twice away from its first vertex),
-    /// `O(M^3)` ([`FeasiblePolygon::walk_into`]).
+    /// a numerical anomaly (an edge met twice where the walk has not come
+    /// back round), `O(M^3)` ([`FeasiblePolygon::walk_into`]).
     pub fn by_brute_force(&self) -> bool {
         self.brute_force
     }
