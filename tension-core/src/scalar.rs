@@ -10,13 +10,13 @@ pub trait Real: RealField + Copy {
     fn lit(x: f64) -> Self;
     /// Machine epsilon of the type.
     fn eps() -> Self;
-    /// `(sin x, cos x)` in the type's own precision. `f64` uses libm; `f32` uses [`sin_cos_f32`], which
+    /// `(sin x, cos x)` in the type's own precision. `f64` uses libm; `f32` uses `sin_cos_f32`, which
     /// stays in single precision (libm's `sinf`/`cosf` work in `f64`, which
     /// the Cortex-M4F emulates in software at about 1200 instructions a call).
     fn sin_cos_native(self) -> (Self, Self);
     /// Square root in the type's own precision, correctly rounded where the
-    /// processor has a square-root instruction: `f64` by [`sqrt_f64`],
-    /// `f32` by [`sqrt_f32`] (libm's `sqrtf` is a software loop on
+    /// processor has a square-root instruction: `f64` by `sqrt_f64`,
+    /// `f32` by `sqrt_f32` (libm's `sqrtf` is a software loop on
     /// Cortex-M, where no libm routine uses the FPU's `vsqrt.f32`).
     fn sqrt_native(self) -> Self;
 }

@@ -13,11 +13,11 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// limits (`lower_j <= n_j . (p_0 + s d) <= upper_j`, an interval of `s`
     /// per cable, `O(M)` per line). A line whose interval is non-empty
     /// offers the pair at its lower end, then at its upper end, as
-    /// candidates, checked like any pair ([`Self::vertex_of`]). A line whose
+    /// candidates, checked like any pair (`vertex_of`). A line whose
     /// interval is empty by more than four times the largest acceptance
     /// tolerance of any of its pairs (the slack tolerance widened by the
     /// crossing's error bound; crossings with lines too close to parallel
-    /// for [`Self::intersect`] are no vertex and do not count) holds no
+    /// for `intersect` are no vertex and do not count) holds no
     /// vertex at all and is left out, and so is a line that a (nearly)
     /// parallel cable's half-plane excludes by as much wherever a vertex of
     /// it could lie (the line of a twin cable outside its twin's, at a
