@@ -421,13 +421,17 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         }
         let h = vertices.get(n - 1).lines.1 as usize;
         let u = &self.unit;
+        // Whether vertex `v` lies on line `line` within the slack tolerance
+        // widened by its error bound.
+        let on_line = |line: usize, v: &Vertex<T>| {
+            let k = line / 2;
+            let nv = u.ux[k] * v.point.x + u.uy[k] * v.point.y;
+            let slack = if line % 2 == 1 { u.hi[k] - nv } else { nv - u.lo[k] };
+            slack.abs() <= u.tol[k] + v.error
+        };
         // Back round along `h` itself: the first vertex on `h`'s line, and
         // the edge along `h` closes the polygon as it is.
-        let first = vertices.get(0);
-        let kh = h / 2;
-        let nv = u.ux[kh] * first.point.x + u.uy[kh] * first.point.y;
-        let slack = if h % 2 == 1 { u.hi[kh] - nv } else { nv - u.lo[kh] };
-        if slack.abs() <= u.tol[kh] + first.error {
+        if on_line(h, &vertices.get(0)) {
             return true;
         }
         // The vertex at which the walk left `g` (arrived along it).
@@ -437,15 +441,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
         let Some(w) = self.vertex_of(h.min(g), h.max(g)) else {
             return false;
         };
-        let k = g / 2;
-        let on_g = |v: &Vertex<T>| {
-            let nv = u.ux[k] * v.point.x + u.uy[k] * v.point.y;
-            let slack = if g % 2 == 1 { u.hi[k] - nv } else { nv - u.lo[k] };
-            slack.abs() <= u.tol[k] + v.error
-        };
-        if !(0..left).all(|i| on_g(&vertices.get(i))) {
+        if !(0..left).all(|i| on_line(g, &vertices.get(i))) {
             return false;
         }
+        let k = g / 2;
         let o = self.unit_normal(g);
         let d = Vector2::new(-o.y, o.x);
         let next = vertices.get(left);
