@@ -59,41 +59,67 @@ pub fn init(usart1: USART1, rcc: &RCC) {
     usart1.cr1().write(|w| w.ue().set_bit().te().set_bit().re().set_bit().rxneie().set_bit());
 }
 
-/// TIM2 ticks spent in the USART1 interrupt's body so far (wrapping): the
-/// control task subtracts what fell within its step ([`InterruptLoad`]),
-/// so that the step's reported cost is its own work (the interrupt's is
-/// bounded apart: the demo's receive flood measures its worst byte).
+/// TIM2 ticks spent in the USART1 interrupt's body so far (wrapping):
+/// [`TaskClock`] takes them out of the control task's time, so that the
+/// step's reported cost is its own work (the interrupt's is bounded
+/// apart: the demo's receive flood measures its worst byte).
 static INTERRUPT_TICKS: AtomicU32 = AtomicU32::new(0);
 
 /// USART1 interrupts taken so far (wrapping): each also costs its entry
 /// and exit outside the body's ticks ([`calibrate_entry_exit`]).
 static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
 
-/// The receive interrupt's running totals, to take what fell within a
-/// span of the control task out of that span's ticks.
+/// The interrupt's running totals and TIM2's count, read together with
+/// interrupts masked (a few instructions), so that no interrupt falls
+/// between the reads.
 #[derive(Debug, Clone, Copy)]
-pub struct InterruptLoad {
-    ticks: u32,
+struct Snapshot {
+    now: u32,
+    body: u32,
     count: u32,
 }
 
-impl InterruptLoad {
-    /// The totals now.
-    pub fn now() -> Self {
-        Self { ticks: INTERRUPT_TICKS.load(Ordering::Relaxed), count: INTERRUPTS.load(Ordering::Relaxed) }
+impl Snapshot {
+    fn take() -> Self {
+        cortex_m::interrupt::free(|_| Self {
+            now: crate::clock::ticks_now(),
+            body: INTERRUPT_TICKS.load(Ordering::Relaxed),
+            count: INTERRUPTS.load(Ordering::Relaxed),
+        })
     }
+}
 
-    /// TIM2 ticks the interrupt took since `self`: its bodies' measured
-    /// ticks plus `entry_exit` ticks per interrupt (the hardware's entry
-    /// and exit and the handler's code around the measured body,
-    /// [`calibrate_entry_exit`]). Without that part a burst of bytes
-    /// during a step (QEMU delivers a backlog as fast as the interrupt
-    /// takes it; no baud rate paces it) added about 20 instructions a
-    /// byte to the step's reported cost.
-    pub fn since(&self, entry_exit: u32) -> u32 {
-        let now = Self::now();
-        let count = now.count.wrapping_sub(self.count);
-        now.ticks.wrapping_sub(self.ticks).wrapping_add(count.wrapping_mul(entry_exit))
+/// TIM2 with the receive interrupt's time taken out: the control task's
+/// own ticks, for its step and the step's phases. Each reading is TIM2's
+/// count less the interrupt's bodies so far and `entry_exit` ticks per
+/// interrupt (the hardware's entry and exit and the handler's code around
+/// the measured body, [`calibrate_entry_exit`]); the difference of two
+/// readings is the task's work between them, whatever the interrupt did.
+///
+/// The three counts are read in one critical section ([`Snapshot`]).
+/// Read one after the other, as the step's timing did before (issue 17,
+/// session 27), a burst of received bytes landing between the reads
+/// counted on one side of the subtraction only: QEMU delivers a backlog
+/// of bytes back to back, so one such gap held up to hundreds of
+/// interrupts, and the product's streamed step reported up to 20 418
+/// instructions for 10 500 of its own (a telemetry `step_cost` that
+/// depended on how the host's frames bunched).
+#[derive(Debug, Clone, Copy)]
+pub struct TaskClock {
+    entry_exit: u32,
+}
+
+impl TaskClock {
+    /// The task's clock, with `entry_exit` from [`calibrate_entry_exit`].
+    pub fn new(entry_exit: u32) -> Self {
+        Self { entry_exit }
+    }
+}
+
+impl cdpr_control::TickCounter for TaskClock {
+    fn ticks(&self) -> u32 {
+        let Snapshot { now, body, count } = Snapshot::take();
+        now.wrapping_sub(body).wrapping_sub(count.wrapping_mul(self.entry_exit))
     }
 }
 
@@ -114,18 +140,16 @@ pub fn calibrate_entry_exit() -> u32 {
     // An interrupt the firmware never unmasks: pending it runs nothing.
     const IDLE: Interrupt = Interrupt::UART4;
     let span = |irq: Interrupt| {
-        let before = InterruptLoad::now();
-        let start = crate::clock::ticks_now();
+        let before = Snapshot::take();
         NVIC::pend(irq);
         cortex_m::asm::dsb();
         cortex_m::asm::isb();
-        let end = crate::clock::ticks_now();
-        let after = InterruptLoad::now();
+        let after = Snapshot::take();
         NVIC::unpend(IDLE);
         (
-            end.wrapping_sub(start),
+            after.now.wrapping_sub(before.now),
             after.count.wrapping_sub(before.count),
-            after.ticks.wrapping_sub(before.ticks),
+            after.body.wrapping_sub(before.body),
         )
     };
     let mut idle = u32::MAX;

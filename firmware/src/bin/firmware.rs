@@ -118,7 +118,7 @@ mod app {
     /// The 1 kHz control loop.
     #[task(priority = 2, local = [board, rx, tx])]
     async fn control(cx: control::Context) {
-        let Board { clock, drives, control, .. } = &mut **cx.local.board;
+        let Board { drives, control, .. } = &mut **cx.local.board;
         let (rx, tx) = (cx.local.rx, cx.local.tx);
         defmt::println!(
             "{=str} cable robot: RTIC 2 on an STM32F405 at {=u32} MHz ({=str}); serial link on USART1, disabled until Enable",
@@ -136,12 +136,14 @@ mod app {
             "the receive interrupt's entry and exit: {=u32} instructions (taken out of each step with its body)",
             clock::ticks_to_units(entry_exit)
         );
+        // The step and its phases are timed on the task's own clock: TIM2
+        // less the receive interrupt's time.
+        let task_clock = serial::TaskClock::new(entry_exit);
         // Written in place by every step (484 bytes: not copied out).
         let mut report = cdpr_control::StepReport::default();
         let mut releases = Releases::start().await;
         loop {
-            let start = clock.ticks();
-            let interrupted = serial::InterruptLoad::now();
+            let start = task_clock.ticks();
             bsp::feed_watchdog();
             // At most FRAME_BUDGET frames (reassembled by the USART1
             // interrupt), whatever arrives; the rest waits.
@@ -155,12 +157,11 @@ mod app {
                     let _ = drives.place_stand_in(control.controller().robot(), &pose);
                 }
             }
-            control.step_into(&*clock, drives, overrun, &mut report);
+            control.step_into(&task_clock, drives, overrun, &mut report);
             // The step's own work: the receive interrupt's time within it
             // (bodies, entries and exits) is left out (bounded apart, see
             // `serial`).
-            let interrupt = interrupted.since(entry_exit);
-            control.record_cost(clock::ticks_to_units(clock.since(start).saturating_sub(interrupt)));
+            control.record_cost(clock::ticks_to_units(task_clock.since(start)));
             // The encoders' stand-in (QEMU), outside the measured step.
             drives.advance(control.last_feasible_lengths());
             // The answer to `Identify` (kept until it fits the transmit
