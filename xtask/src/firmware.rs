@@ -51,9 +51,10 @@ const DEMO: &str = "demo";
 /// reflections are applied to two columns at a time, session 22; 14,062
 /// since the warm pair's check gives the first vertex's active lines and
 /// margin, 13,755 since the step's finiteness checks are one sum each,
-/// session 23), below the [`BUDGET`]. Other robots' steps are held to the
-/// budget.
-const REGRESSION_CEILING: u32 = 13_950;
+/// session 23; 13,415 since the board is built with a raised inlining
+/// threshold, `.cargo/config.toml`, session 26), below the [`BUDGET`].
+/// Other robots' steps are held to the budget.
+const REGRESSION_CEILING: u32 = 13_600;
 
 /// The regression ceiling of the step's receive share under the demo's
 /// receive flood: a cycle's `cdpr_control::FRAME_BUDGET` (2) of
@@ -641,8 +642,8 @@ mod tests {
         Report {
             instructions: true,
             cycles: 4000,
-            step: Spread { min: 9_665, median: 10_313, max: 13_755 },
-            solver: Spread { min: 5_731, median: 5_809, max: 9_645 },
+            step: Spread { min: 9_454, median: 10_121, max: 13_415 },
+            solver: Spread { min: 5_696, median: 5_775, max: 9_440 },
             overruns: 0,
             calibration_ticks: 160_000,
             calibration_expected: 160_000,
