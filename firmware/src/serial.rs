@@ -90,7 +90,8 @@ impl Snapshot {
 }
 
 /// TIM2 with the receive interrupt's time taken out: the control task's
-/// own ticks, for its step and the step's phases. Each reading is TIM2's
+/// own ticks, for its step (the product does not time the step's phases).
+/// Each reading is TIM2's
 /// count less the interrupt's bodies so far and `entry_exit` ticks per
 /// interrupt (the hardware's entry and exit and the handler's code around
 /// the measured body, [`calibrate_entry_exit`]); the difference of two
