@@ -419,7 +419,7 @@ fn compare(
 /// frames bunched: 208 telemetry samples for the usual 122); 11 492 to
 /// 13 218 over four runs with the phases timed. `cdpr stream`'s session
 /// (`e2e_stream`) is held to it too (11 021 measured). Other robots' are
-/// held to the budget (`firmware::ceiling_for`; ipanema1 measured 15 449).
+/// in `firmware::ceilings` (the budget for a robot without figures).
 pub(crate) const PRODUCT_CEILING: u32 = 14_000;
 
 /// The tracking phase's verdict: enough samples compared, every error within
@@ -620,7 +620,7 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
             &tracking,
             last,
             (tolerances.tension, tolerances.torque),
-            crate::firmware::ceiling_for(file, PRODUCT_CEILING),
+            crate::firmware::ceilings(file).product,
         ),
     };
     results.insert(
@@ -1173,8 +1173,8 @@ mod tests {
         assert!(within_ceiling(cdpr_demo::BUDGET, cdpr_demo::BUDGET).is_ok());
         assert!(within_ceiling(cdpr_demo::BUDGET + 1, u32::MAX).is_err());
         assert_eq!(
-            crate::firmware::ceiling_for(Path::new("robots/ipanema1.toml"), PRODUCT_CEILING),
-            cdpr_demo::BUDGET
+            crate::firmware::ceilings(Path::new(crate::firmware::DEFAULT_ROBOT)).product,
+            PRODUCT_CEILING
         );
     }
 

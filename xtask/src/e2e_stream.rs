@@ -180,7 +180,7 @@ pub fn run(robot: &Path) -> Check {
     let id = host.identity.clone();
     let identity = Identity::new(&id.name, id.hash, 6, 8);
     let points = points(&host);
-    let ceiling = crate::firmware::ceiling_for(robot, crate::e2e::PRODUCT_CEILING);
+    let ceiling = crate::firmware::ceilings(robot).product;
     for attempt in 1..=ATTEMPTS {
         match attempt_once(&host, &identity, &points, ceiling) {
             Err(Retry(e)) if attempt < ATTEMPTS => {

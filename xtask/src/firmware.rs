@@ -53,8 +53,69 @@ const DEMO: &str = "demo";
 /// margin, 13,755 since the step's finiteness checks are one sum each,
 /// session 23; 13,415 since the board is built with a raised inlining
 /// threshold, `.cargo/config.toml`, session 26), below the [`BUDGET`].
-/// Other robots' steps are held to the budget.
 const REGRESSION_CEILING: u32 = 13_600;
+
+/// The worst step of the default robot's demo with the CiA 402 layer inside
+/// ([`LAYER_IN_STEP_VAR`]): measured 17 671 (issue 17, session 28).
+const LAYER_IN_STEP_CEILING: u32 = 17_900;
+
+/// IPAnema 1's demo's worst step: measured 14 425 (an infeasible pose's
+/// cold search at cycle 3 156; issue 17, session 28).
+const IPANEMA1_CEILING: u32 = 14_600;
+
+/// IPAnema 1's demo's worst step with the CiA 402 layer inside: measured
+/// 18 489 (issue 17, session 28).
+const IPANEMA1_LAYER_IN_STEP_CEILING: u32 = 18_700;
+
+/// IPAnema 1's product's worst streamed step (telemetry's `step_cost`, the
+/// stream's cold start with two frames; the streamed trajectory and `cdpr
+/// stream`'s session): measured 15 449 and 15 756 in the runs of session
+/// 27 (16 076-16 406 while the product still timed its phases); QEMU runs
+/// the product with its clock, so the host's load moves it by several
+/// hundred (as [`crate::e2e::PRODUCT_CEILING`]'s figures).
+const IPANEMA1_PRODUCT_CEILING: u32 = 17_000;
+
+/// The test command's regression ceilings for one robot: each a little
+/// above what was measured when it was set, so that a change that makes
+/// the step dearer fails the test command (issue 17: "the test command
+/// keeps requiring 20 000 and holds a regression ceiling just above what
+/// you reach").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Ceilings {
+    /// The demo's worst step (deterministic: QEMU `-icount`, sleep off).
+    pub demo: u32,
+    /// The demo's worst step with the CiA 402 drive layer inside
+    /// (deterministic).
+    pub layer_in_step: u32,
+    /// The product's worst streamed step with its frames (the end-to-end
+    /// test's streamed trajectory and `cdpr stream`'s session).
+    pub product: u32,
+}
+
+impl Ceilings {
+    /// A robot without measured figures: the [`BUDGET`] for everything.
+    const BUDGET: Self = Self { demo: BUDGET, layer_in_step: BUDGET, product: BUDGET };
+}
+
+/// The ceilings of the robots of [`TEST_ROBOTS`], each measured on it.
+const TEST_CEILINGS: [(&str, Ceilings); 2] = [
+    (
+        DEFAULT_ROBOT,
+        Ceilings {
+            demo: REGRESSION_CEILING,
+            layer_in_step: LAYER_IN_STEP_CEILING,
+            product: crate::e2e::PRODUCT_CEILING,
+        },
+    ),
+    (
+        "robots/ipanema1.toml",
+        Ceilings {
+            demo: IPANEMA1_CEILING,
+            layer_in_step: IPANEMA1_LAYER_IN_STEP_CEILING,
+            product: IPANEMA1_PRODUCT_CEILING,
+        },
+    ),
+];
 
 /// The regression ceiling of the step's receive share under the demo's
 /// receive flood: a cycle's `cdpr_control::FRAME_BUDGET` (2) of
@@ -64,27 +125,14 @@ const REGRESSION_CEILING: u32 = 13_600;
 /// [`RECEIVE_LIMIT`], which bounds it against the period.
 const RECEIVE_CEILING: u32 = 1_000;
 
-/// The ceiling of `robot`'s worst step: [`REGRESSION_CEILING`] for the
-/// default robot, [`BUDGET`] for others.
-fn ceiling(robot: &Path) -> u32 {
-    ceiling_for(robot, REGRESSION_CEILING)
-}
-
-/// A regression ceiling measured on the default robot: `default_ceiling`
-/// for it, the [`BUDGET`] for other robots (the demo's step and the
-/// product's streamed step, `e2e`).
-pub(crate) fn ceiling_for(robot: &Path, default_ceiling: u32) -> u32 {
-    if is_default_robot(robot) {
-        default_ceiling
-    } else {
-        BUDGET
-    }
-}
-
-/// Whether `robot` (absolute, as [`robot_path`] gives it) is
-/// [`DEFAULT_ROBOT`], whose figures the test command holds tighter.
-fn is_default_robot(robot: &Path) -> bool {
-    robot_path(DEFAULT_ROBOT).is_ok_and(|default| default == robot)
+/// `robot`'s regression ceilings ([`TEST_CEILINGS`]; `robot` absolute, as
+/// [`robot_path`] gives it, or as written there): the [`BUDGET`] for a
+/// robot the test command has no figures of (a user's robot file).
+pub(crate) fn ceilings(robot: &Path) -> Ceilings {
+    TEST_CEILINGS
+        .iter()
+        .find(|(file, _)| Path::new(file) == robot || robot_path(file).is_ok_and(|p| p == robot))
+        .map_or(Ceilings::BUDGET, |&(_, c)| c)
 }
 /// Fewest control cycles a run must report.
 const MIN_CYCLES: u32 = 2_000;
@@ -163,7 +211,7 @@ pub fn test() -> Result<(usize, usize), String> {
         let robot = robot_path(file)?;
         let name = label(&robot);
         let run = run_firmware(DEMO, &robot, true)?;
-        for (check, result) in DEMO_CHECKS.iter().zip(judge_demo(&run, ceiling(&robot))) {
+        for (check, result) in DEMO_CHECKS.iter().zip(judge_demo(&run, ceilings(&robot).demo)) {
             tally.report(&format!("[{name}] {check}"), result);
         }
         if n == 0 {
@@ -189,8 +237,9 @@ pub fn test() -> Result<(usize, usize), String> {
     for file in TEST_ROBOTS {
         let robot = robot_path(file)?;
         tally.report(
-            &format!("[{}] the step with the CiA 402 drive layer inside ({LAYER_IN_STEP_VAR}) within the budget, no overrun, stack within its limit", label(&robot)),
-            run_firmware_with(DEMO, &robot, true, &layer, RUN_TIMEOUT).and_then(|run| judge_layer_in_step(&run)),
+            &format!("[{}] the step with the CiA 402 drive layer inside ({LAYER_IN_STEP_VAR}) within its regression ceiling and the budget, no overrun, stack within its limit", label(&robot)),
+            run_firmware_with(DEMO, &robot, true, &layer, RUN_TIMEOUT)
+                .and_then(|run| judge_layer_in_step(&run, ceilings(&robot).layer_in_step)),
         );
     }
     Ok((tally.passed, tally.failed))
@@ -201,12 +250,12 @@ pub fn test() -> Result<(usize, usize), String> {
 const LAYER_IN_STEP_VAR: &str = "CDPR_DEMO_CAN_LAYER";
 
 /// The demo built with [`LAYER_IN_STEP_VAR`], judged as the demo is
-/// ([`judge_demo`]) with the [`BUDGET`] as the ceiling, on its step (the
-/// layer's `read`, `set_brakes` and `apply` of eight drives inside, frames
-/// looped back in memory: worst step, overruns, its own verdict) and its
-/// stack; for every robot of [`TEST_ROBOTS`].
-fn judge_layer_in_step(run: &Run) -> Result<String, String> {
-    let [step, _, _, _, stack, _, _] = judge_demo(run, BUDGET);
+/// ([`judge_demo`]) with `ceiling` (at most the [`BUDGET`]), on its step
+/// (the layer's `read`, `set_brakes` and `apply` of eight drives inside,
+/// frames looped back in memory: worst step, overruns, its own verdict) and
+/// its stack; for every robot of [`TEST_ROBOTS`].
+fn judge_layer_in_step(run: &Run, ceiling: u32) -> Result<String, String> {
+    let [step, _, _, _, stack, _, _] = judge_demo(run, ceiling.min(BUDGET));
     match (step, stack) {
         (Ok(step), Ok(stack)) => Ok(format!("{step}; stack {stack}")),
         (step, stack) => {
@@ -665,21 +714,45 @@ mod tests {
         }
     }
 
-    /// The layer-in-step build is held to the budget, its overruns, its
-    /// verdict and its stack.
+    /// The layer-in-step build is held to its ceiling (never above the
+    /// budget), its overruns, its verdict and its stack.
     #[test]
     fn judges_the_step_with_the_drive_layer() {
         let run = |r: Report, code| Run { code: Some(code), records: vec![Record::Finished(r)] };
-        let layer = Report { step: Spread { min: 15_245, median: 16_216, max: 19_874 }, ..report() };
-        assert!(judge_layer_in_step(&run(layer, 0)).is_ok());
+        let layer = Report { step: Spread { min: 13_347, median: 14_013, max: 17_671 }, ..report() };
+        assert!(judge_layer_in_step(&run(layer, 0), LAYER_IN_STEP_CEILING).is_ok());
+        let dearer = Report { step: Spread { max: LAYER_IN_STEP_CEILING + 1, ..layer.step }, ..report() };
+        assert!(judge_layer_in_step(&run(dearer, 0), LAYER_IN_STEP_CEILING).is_err());
+        assert!(judge_layer_in_step(&run(dearer, 0), BUDGET).is_ok());
         let over = Report { step: Spread { max: BUDGET + 1, ..layer.step }, ..report() };
-        assert!(judge_layer_in_step(&run(over, 0)).is_err());
+        assert!(judge_layer_in_step(&run(over, 0), BUDGET).is_err());
+        assert!(judge_layer_in_step(&run(over, 0), u32::MAX).is_err());
         let late = Report { overruns: 1, ..layer };
-        assert!(judge_layer_in_step(&run(late, 0)).is_err());
+        assert!(judge_layer_in_step(&run(late, 0), BUDGET).is_err());
         let deep = Report { stack_used: STACK_LIMIT + 4, ..layer };
-        assert!(judge_layer_in_step(&run(deep, 0)).is_err());
-        assert!(judge_layer_in_step(&run(layer, 33)).is_err());
-        assert!(judge_layer_in_step(&Run { code: Some(0), records: Vec::new() }).is_err());
+        assert!(judge_layer_in_step(&run(deep, 0), BUDGET).is_err());
+        assert!(judge_layer_in_step(&run(layer, 33), BUDGET).is_err());
+        assert!(judge_layer_in_step(&Run { code: Some(0), records: Vec::new() }, BUDGET).is_err());
+    }
+
+    /// Every robot the test command runs has its own ceilings, each below
+    /// the budget; a robot file it has no figures of gets the budget.
+    #[test]
+    fn every_test_robot_has_ceilings_below_the_budget() {
+        for file in TEST_ROBOTS {
+            let c = ceilings(Path::new(file));
+            assert_ne!(c, Ceilings::BUDGET, "{file}");
+            assert!(c.demo < BUDGET && c.layer_in_step < BUDGET && c.product < BUDGET, "{file}: {c:?}");
+            // The demo's step is the layer's step without the layer.
+            assert!(c.demo < c.layer_in_step, "{file}: {c:?}");
+            if let Ok(absolute) = robot_path(file) {
+                assert_eq!(ceilings(&absolute), c, "{file}");
+            }
+        }
+        assert_eq!(TEST_CEILINGS.map(|(file, _)| file), TEST_ROBOTS);
+        assert_eq!(ceilings(Path::new("robots/spatial6-10.toml")), Ceilings::BUDGET);
+        assert_eq!(ceilings(Path::new("/tmp/my-robot.toml")), Ceilings::BUDGET);
+        assert_eq!(ceilings(Path::new(DEFAULT_ROBOT)).demo, REGRESSION_CEILING);
     }
 
     #[test]
