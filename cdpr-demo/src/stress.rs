@@ -43,9 +43,9 @@ pub const SHORT_RUN: u32 = 2_000;
 /// barycenter-brute and closed form since 2026-12-03: 11 113, 27 890 and
 /// 2 816), plus about 5-8 %
 /// (instructions under QEMU). The stress program fails above them. They
-/// are not the board's offer table (`crate::methods::COSTS`, from the demo
-/// trajectory): where a method's stress worst is above its offer figure,
-/// BENCHMARKS.md says so.
+/// are not the board's offer table (`crate::methods::COSTS`, the stated
+/// worst over the demo trajectory and the full stress set, which every
+/// stress run, short or full, also holds each method to).
 pub const CEILINGS: [(Method, u32); 10] = [
     (Method::Barycenter, 11_800),
     (Method::BarycenterBrute, 29_500),
