@@ -943,3 +943,105 @@ fn norms_in_f32_solve_every_pose_the_barycenter_solves() {
     }
     assert!(solved > 900, "{solved} feasible poses");
 }
+
+/// Regression (found by the board's stress set, issue 17, session 28): in
+/// `f32`, at poses on the workspace border (bisected along rays from the
+/// centre, as `cdpr_demo::stress` finds them), `optimally-safe` failed with
+/// `no-convergence` on 2 754 of suspended-8's 3 333 border poses: the
+/// safest margin `s*` was below the tie-break's width (`16 tol`, 0.04 N in
+/// `f32`), so the tie set `{slack >= s* - 16 tol}` reached beyond the
+/// limits and its smallest-norm point was refused. The tie set now stops at
+/// the limits. Every border pose the barycenter solves must be solved,
+/// within the limits, with `W t = f`, and with the safest margin of the
+/// `f64` reference (the clipper's bisection on the inward offset) up to the
+/// `f32` tie width.
+#[test]
+fn optimally_safe_in_f32_solves_the_workspace_border() {
+    fn border_poses(name: &str, centre: [f64; 3]) -> usize {
+        let r32: Robot<f32, 6, 8> = shipped_robot(name);
+        let r64: Robot<f64, 6, 8> = shipped_robot(name);
+        let limits = *r64.limits();
+        let range = limits.max()[0] - limits.min()[0];
+        let problem = |p: &SVector<f32, 6>| {
+            Some((r32.wrench_matrix(p).ok()?, r32.required_wrench(p, &SVector::zeros(), None).ok()?))
+        };
+        let feasible = |p: &SVector<f32, 6>| {
+            problem(p).is_some_and(|(w, f)| {
+                solve(Method::Barycenter, &w, &f, r32.limits(), &PreviousCycle::NONE).is_ok()
+            })
+        };
+        let inside =
+            SVector::<f32, 6>::from([centre[0], centre[1], centre[2], 0.0, 0.0, 0.0].map(|x| x as f32));
+        assert!(feasible(&inside), "{name}: the centre");
+        // The anchors' box widened by half a metre, angles within 0.5 rad
+        // (xorshift32: the same rays every run).
+        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for a in r32.anchors() {
+            for i in 0..3 {
+                (lo[i], hi[i]) = (lo[i].min(a[i] - 0.5), hi[i].max(a[i] + 0.5));
+            }
+        }
+        let mut state = 0x9e37_79b9u32;
+        let mut unit = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut checked = 0;
+        for ray in 0..200 {
+            let outside = SVector::<f32, 6>::from_fn(|i, _| {
+                if i < 3 {
+                    lo[i] + (hi[i] - lo[i]) * unit()
+                } else {
+                    0.5 * (2.0 * unit() - 1.0)
+                }
+            });
+            if feasible(&outside) {
+                continue;
+            }
+            let (mut a, mut b) = (0.0f32, 1.0f32);
+            for _ in 0..12 {
+                let mid = 0.5 * (a + b);
+                if feasible(&(inside + (outside - inside) * mid)) {
+                    a = mid;
+                } else {
+                    b = mid;
+                }
+            }
+            let pose = inside + (outside - inside) * a;
+            let Some((w, f)) = problem(&pose) else { continue };
+            if solve(Method::Barycenter, &w, &f, r32.limits(), &PreviousCycle::NONE).is_err() {
+                continue;
+            }
+            let safest = solve(Method::OptimallySafe, &w, &f, r32.limits(), &PreviousCycle::NONE)
+                .unwrap_or_else(|e| panic!("{name} ray {ray}: optimally-safe failed with {e:?} at {pose:?}"));
+            let t = safest.tensions.map(f64::from);
+            let pose64 = pose.map(f64::from);
+            let w64 = r64.wrench_matrix(&pose64).unwrap();
+            let f64_ = r64.required_wrench(&pose64, &SVector::zeros(), None).unwrap();
+            for i in 0..8 {
+                assert!(
+                    t[i] >= limits.min()[i] - 1e-4 * range && t[i] <= limits.max()[i] + 1e-4 * range,
+                    "{name} ray {ray}: {t:?}"
+                );
+            }
+            assert!((w64 * t - f64_).amax() < 1e-3 * range, "{name} ray {ray}: residual");
+            let reference = ReferencePolygon::<8>::new(&w64, &f64_, &limits);
+            if reference.vertices.is_empty() {
+                continue;
+            }
+            let margin = reference_safest_margin(&reference, &limits);
+            let robustness = f64::from(safest.robustness);
+            assert!(
+                (robustness - margin).abs() < 5e-4 * range,
+                "{name} ray {ray}: robustness {robustness}, the reference's safest margin {margin}"
+            );
+            checked += 1;
+        }
+        eprintln!("{name}: {checked} border poses checked");
+        checked
+    }
+    assert!(border_poses("suspended-8", [0.0, 0.0, 1.5]) > 100);
+    assert!(border_poses("ipanema1", [0.0, 0.0, 1.0]) > 100);
+}

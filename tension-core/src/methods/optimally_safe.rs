@@ -13,7 +13,10 @@
 //! null-space rows of the critical cables are parallel, a whole segment is
 //! optimal (Di Paola et al. 2024, Remark 3.2 and after Eq. 10). Our choice for
 //! that tie: the point of smallest 2-norm among the maximisers (projection of
-//! the origin onto `{slack_h >= s* - 16 tol}`), the same rule as `min-1-norm`.
+//! the origin onto `{slack_h >= max(s* - 16 tol, min(s*, 0))}`: never beyond
+//! the limits, so that where `s*` is below the tie's width, at the
+//! workspace border or with `f32`'s wider tolerance, every feasible point
+//! is a tie), the same rule as `min-1-norm`.
 //!
 //! * `r = 2`, exact in a fixed number of operations: the optimum of the LP
 //!   is a vertex of the 3-D polyhedron `{(lambda, s): slack_h >= s}`, i.e.
@@ -44,7 +47,7 @@ use nalgebra::{SVector, Vector2};
 use super::{PolygonWork, PreviousCycle, Problem};
 use crate::{
     active_set::{minimise_linear, project, small, Constraints, NullSpaceProblem},
-    scalar::greater,
+    scalar::{greater, max, min},
     solution::{checked_solution, Solution, WarmStart},
     Error, Real,
 };
@@ -77,8 +80,12 @@ pub fn solve<T: Real, const N: usize, const M: usize>(
     if !s_best.is_finite() || s_best < -T::lit(4.0) * tol {
         return Err(Error::Infeasible);
     }
-    // Tie-break: the smallest 2-norm among the (nearly) safest points.
-    let margin = s_best - T::lit(16.0) * tol;
+    // Tie-break: the smallest 2-norm among the (nearly) safest points,
+    // never beyond the limits: where the safest point is closer to a limit
+    // than the tie's width (the workspace border, or `f32`'s wider
+    // tolerance), every feasible point is a tie and the set is the
+    // feasible polygon itself (`s* < 0`, within rounding: the safest).
+    let margin = max(s_best - T::lit(16.0) * tol, min(s_best, T::zero()));
 
     let lambda = match project(&Constraints::limits(&prob).with_margin(margin), &SVector::zeros(), tol) {
         Ok(p) => {
