@@ -16,7 +16,8 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use cdpr_integration_tests::{
-    clip_polygon, random_problem, reference_particular, shipped_robot, trajectory, ReferencePolygon, Sample,
+    clip_polygon, frame_poses, random_problem, reference_particular, shipped_robot, trajectory,
+    ReferencePolygon, Sample,
 };
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use proptest::test_runner::TestRunner;
@@ -973,30 +974,20 @@ fn optimally_safe_in_f32_solves_the_workspace_border() {
         let inside =
             SVector::<f32, 6>::from([centre[0], centre[1], centre[2], 0.0, 0.0, 0.0].map(|x| x as f32));
         assert!(feasible(&inside), "{name}: the centre");
-        // The anchors' box widened by half a metre, angles within 0.5 rad
-        // (xorshift32: the same rays every run).
-        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
-        for a in r32.anchors() {
+        // Uniform over the anchors' box widened by half a metre, angles
+        // within 0.5 rad (the same rays every run).
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for a in r64.anchors() {
             for i in 0..3 {
-                (lo[i], hi[i]) = (lo[i].min(a[i] - 0.5), hi[i].max(a[i] + 0.5));
+                (lo[i], hi[i]) = (lo[i].min(a[i]), hi[i].max(a[i]));
             }
         }
-        let mut state = 0x9e37_79b9u32;
-        let mut unit = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let middle = [0, 1, 2].map(|i| 0.5 * (lo[i] + hi[i]));
+        let half =
+            [0.5 * (hi[0] - lo[0]) + 0.5, 0.5 * (hi[1] - lo[1]) + 0.5, 0.5 * (hi[2] - lo[2]) + 0.5, 0.5];
         let mut checked = 0;
-        for ray in 0..200 {
-            let outside = SVector::<f32, 6>::from_fn(|i, _| {
-                if i < 3 {
-                    lo[i] + (hi[i] - lo[i]) * unit()
-                } else {
-                    0.5 * (2.0 * unit() - 1.0)
-                }
-            });
+        for (ray, far) in frame_poses(middle, half, 200, 0x9e37_79b9).iter().enumerate() {
+            let outside = far.map(|x| x as f32);
             if feasible(&outside) {
                 continue;
             }
