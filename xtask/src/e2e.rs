@@ -479,7 +479,7 @@ fn judge_tracking(
 }
 
 /// The product's worst step against the budget and `ceiling`.
-fn within_ceiling(worst: u32, ceiling: u32) -> Result<(), String> {
+pub(crate) fn within_ceiling(worst: u32, ceiling: u32) -> Result<(), String> {
     if worst > cdpr_demo::BUDGET {
         Err("the product's worst step is over the budget".into())
     } else if worst > ceiling {

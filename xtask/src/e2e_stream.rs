@@ -274,11 +274,10 @@ fn attempt_once(
         Err(format!("too few samples: {figures}"))
     } else if worst_t > tol_t || worst_tau > tol_tau || rejected > 0 || dry > 0 {
         Err(format!("{figures}; {dry} samples with the buffer dry mid-stream"))
-    } else if cost_max > cdpr_demo::BUDGET {
-        Err(format!("the product's step over the {} budget: {figures}", cdpr_demo::BUDGET))
-    } else if cost_max > ceiling {
-        Err(format!("the product's step over its regression ceiling {ceiling}: {figures}"))
     } else {
-        Ok(figures)
+        match crate::e2e::within_ceiling(cost_max, ceiling) {
+            Ok(()) => Ok(figures),
+            Err(e) => Err(format!("{e}: {figures}")),
+        }
     })
 }
