@@ -406,22 +406,6 @@ fn compare(
     Ok(c)
 }
 
-/// The regression ceiling of the product's worst streamed step on the
-/// default robot (telemetry's `step_cost`: at most two setpoint frames
-/// decoded in it, `cdpr_control::FRAME_BUDGET`; the worst is the cold
-/// start at the stream's start). The step is timed on
-/// `firmware::serial::TaskClock` (issue 17, session 27): before, the
-/// receive interrupt's totals and TIM2 were read one after the other and
-/// a burst of bytes between the reads made the figure depend on the
-/// machine's load (13 411 to 20 418 for the same code). Since, with the
-/// board's raised inlining threshold and the phases no longer timed in the
-/// product: 12 402, and 12 888 with two CPU hogs beside QEMU (the host's
-/// frames bunched: 208 telemetry samples for the usual 122); 11 492 to
-/// 13 218 over four runs with the phases timed. `cdpr stream`'s session
-/// (`e2e_stream`) is held to it too (11 021 measured). Other robots' are
-/// in `firmware::ceilings` (the budget for a robot without figures).
-pub(crate) const PRODUCT_CEILING: u32 = 14_000;
-
 /// The tracking phase's verdict: enough samples compared, every error within
 /// its tolerance, no frame rejected; the figures, with the step cost the
 /// telemetry reports, whose worst is held to `ceiling` (at most the
@@ -1168,13 +1152,15 @@ mod tests {
 
     #[test]
     fn holds_the_product_step_to_its_ceiling_and_the_budget() {
-        assert!(within_ceiling(PRODUCT_CEILING, PRODUCT_CEILING).is_ok());
-        assert!(within_ceiling(PRODUCT_CEILING + 1, PRODUCT_CEILING).is_err());
+        assert!(within_ceiling(crate::firmware::PRODUCT_CEILING, crate::firmware::PRODUCT_CEILING).is_ok());
+        assert!(
+            within_ceiling(crate::firmware::PRODUCT_CEILING + 1, crate::firmware::PRODUCT_CEILING).is_err()
+        );
         assert!(within_ceiling(cdpr_demo::BUDGET, cdpr_demo::BUDGET).is_ok());
         assert!(within_ceiling(cdpr_demo::BUDGET + 1, u32::MAX).is_err());
         assert_eq!(
             crate::firmware::ceilings(Path::new(crate::firmware::DEFAULT_ROBOT)).product,
-            PRODUCT_CEILING
+            crate::firmware::PRODUCT_CEILING
         );
     }
 

@@ -55,6 +55,22 @@ const DEMO: &str = "demo";
 /// threshold, `.cargo/config.toml`, session 26), below the [`BUDGET`].
 const REGRESSION_CEILING: u32 = 13_600;
 
+/// The regression ceiling of the product's worst streamed step on the
+/// default robot (telemetry's `step_cost`: at most two setpoint frames
+/// decoded in it, `cdpr_control::FRAME_BUDGET`; the worst is the cold
+/// start at the stream's start). The step is timed on
+/// `firmware::serial::TaskClock` (issue 17, session 27): before, the
+/// receive interrupt's totals and TIM2 were read one after the other and
+/// a burst of bytes between the reads made the figure depend on the
+/// machine's load (13 411 to 20 418 for the same code). Since, with the
+/// board's raised inlining threshold and the phases no longer timed in the
+/// product: 12 402, and 12 888 with two CPU hogs beside QEMU (the host's
+/// frames bunched: 208 telemetry samples for the usual 122); 11 492 to
+/// 13 218 over four runs with the phases timed. `cdpr stream`'s session
+/// (`e2e_stream`) is held to it too (11 021 measured). Other robots' are
+/// in [`TEST_CEILINGS`] (the budget for a robot without figures).
+pub(crate) const PRODUCT_CEILING: u32 = 14_000;
+
 /// The worst step of the default robot's demo with the CiA 402 layer inside
 /// ([`LAYER_IN_STEP_VAR`]): measured 17 671 (issue 17, session 28).
 const LAYER_IN_STEP_CEILING: u32 = 17_900;
@@ -72,7 +88,7 @@ const IPANEMA1_LAYER_IN_STEP_CEILING: u32 = 18_700;
 /// stream`'s session): measured 15 449 and 15 756 in the runs of session
 /// 27 (16 076-16 406 while the product still timed its phases); QEMU runs
 /// the product with its clock, so the host's load moves it by several
-/// hundred (as [`crate::e2e::PRODUCT_CEILING`]'s figures).
+/// hundred (as [`PRODUCT_CEILING`]'s figures).
 const IPANEMA1_PRODUCT_CEILING: u32 = 17_000;
 
 /// The test command's regression ceilings for one robot: each a little
@@ -101,11 +117,7 @@ impl Ceilings {
 const TEST_CEILINGS: [(&str, Ceilings); 2] = [
     (
         DEFAULT_ROBOT,
-        Ceilings {
-            demo: REGRESSION_CEILING,
-            layer_in_step: LAYER_IN_STEP_CEILING,
-            product: crate::e2e::PRODUCT_CEILING,
-        },
+        Ceilings { demo: REGRESSION_CEILING, layer_in_step: LAYER_IN_STEP_CEILING, product: PRODUCT_CEILING },
     ),
     (
         "robots/ipanema1.toml",
