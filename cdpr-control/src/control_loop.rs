@@ -914,8 +914,18 @@ impl ControlLoop {
                         SetpointStatus::FeedbackInfeasible
                     }
                     Ok((c, lengths)) if tension_core::all_finite(c.torques.iter().copied()) => {
-                        self.feedback_scale = (self.feedback_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
-                        self.moment_scale = (self.moment_scale + FEEDBACK_RECOVERY_PER_CYCLE).min(1.0);
+                        // Plain comparisons: `f32::min` is libm's software
+                        // `fminf` on the Cortex-M4F.
+                        let recovered = |scale: f32| {
+                            let raised = scale + FEEDBACK_RECOVERY_PER_CYCLE;
+                            if raised < 1.0 {
+                                raised
+                            } else {
+                                1.0
+                            }
+                        };
+                        self.feedback_scale = recovered(self.feedback_scale);
+                        self.moment_scale = recovered(self.moment_scale);
                         // The setpoint is feasible whatever the estimate:
                         // the length check and the stand-in plant follow it.
                         self.feasible_lengths = Some(lengths);
@@ -1014,7 +1024,9 @@ impl ControlLoop {
         report.telemetry = None;
         if self.telemetry_period != 0 && now.is_multiple_of(u32::from(self.telemetry_period)) {
             report.telemetry = Some({
-                let ok = report.solved.and_then(|c| c.result.ok());
+                // By reference: the solved cycle's command is not copied
+                // (about 250 instructions of `memcpy` on the board).
+                let ok = report.solved.as_ref().and_then(|c| c.result.as_ref().ok());
                 let limited = ok.map_or(Saturation::NONE, |c| c.limited);
                 Telemetry {
                     cycle: now,
