@@ -914,16 +914,10 @@ impl ControlLoop {
                         SetpointStatus::FeedbackInfeasible
                     }
                     Ok((c, lengths)) if tension_core::all_finite(c.torques.iter().copied()) => {
-                        // Plain comparisons: `f32::min` is libm's software
-                        // `fminf` on the Cortex-M4F.
-                        let recovered = |scale: f32| {
-                            let raised = scale + FEEDBACK_RECOVERY_PER_CYCLE;
-                            if raised < 1.0 {
-                                raised
-                            } else {
-                                1.0
-                            }
-                        };
+                        // `tension_core::min`, a plain comparison: `f32::min`
+                        // is libm's software `fminf` on the Cortex-M4F.
+                        let recovered =
+                            |scale: f32| tension_core::min(scale + FEEDBACK_RECOVERY_PER_CYCLE, 1.0);
                         self.feedback_scale = recovered(self.feedback_scale);
                         self.moment_scale = recovered(self.moment_scale);
                         // The setpoint is feasible whatever the estimate:

@@ -62,7 +62,7 @@ pub use methods::analytic_centre::{
 };
 pub use methods::{solve, Method, PreviousCycle, Problem};
 pub use polygon::{ActivePair, Bound};
-pub use scalar::{all_finite, Real};
+pub use scalar::{all_finite, max, min, Real};
 pub use solution::{robustness, Diagnostics, Solution, WarmStart};
 pub use solver::TensionSolver;
 

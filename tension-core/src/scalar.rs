@@ -170,7 +170,7 @@ pub(crate) fn finite<T: Real>(values: &[T]) -> bool {
 /// unordered). `f32::max` is a call to libm's software `fmaxf` on the
 /// Cortex-M4F, whose FPU has no `vmaxnm`.
 #[inline(always)]
-pub(crate) fn max<T: Real>(a: T, b: T) -> T {
+pub fn max<T: Real>(a: T, b: T) -> T {
     if a > b {
         a
     } else {
@@ -181,7 +181,7 @@ pub(crate) fn max<T: Real>(a: T, b: T) -> T {
 /// The smaller of `a` and `b` by a plain comparison (`b` when they are
 /// unordered); see [`max`].
 #[inline(always)]
-pub(crate) fn min<T: Real>(a: T, b: T) -> T {
+pub fn min<T: Real>(a: T, b: T) -> T {
     if a < b {
         a
     } else {
