@@ -8,7 +8,10 @@
 //! at and around that shift, in `f32` and `f64`. At the same shifts, the
 //! walk's fallback (the pairs of the lines the clipping does not prove
 //! empty, `FeasiblePolygon::brute_force_among`) finds the same vertices, in
-//! the same order, with the same outcome, as the pairs of all lines.
+//! the same order, with the same outcome, as the pairs of all lines. The
+//! search with any cable's lines clipped first
+//! (`FeasiblePolygon::first_vertex_from`, as after a lost warm start)
+//! gives the same verdict.
 
 use cdpr_integration_tests::{eight_cable_polygon, shifted_polygon, EightCablePolygon};
 use proptest::{prelude::*, test_runner::TestRunner};
@@ -59,14 +62,19 @@ fn check_border<T: Real>(c: &Case) -> Result<usize, TestCaseError> {
     for i in -8..=8 {
         let tau = a + (b - a) * i as f64 + 1e-7 * (1.0 + a.abs()) * i as f64;
         let Some(p) = polygon::<T>(c, tau) else { continue };
-        prop_assert_eq!(
-            p.first_vertex().is_some(),
-            p.brute_force().is_ok(),
-            "shift {} (border between {} and {})",
-            tau,
-            a,
-            b
-        );
+        let exists = p.brute_force().is_ok();
+        prop_assert_eq!(p.first_vertex().is_some(), exists, "shift {} (border between {} and {})", tau, a, b);
+        // Whichever cable's lines are clipped first (a lost warm start's
+        // cutting cable, and one out of range: the first), the same verdict.
+        for first in 0..=M + 1 {
+            prop_assert_eq!(
+                p.first_vertex_from(first).is_some(),
+                exists,
+                "shift {}, cable {} first",
+                tau,
+                first
+            );
+        }
         let (mut all, mut among) = (VertexList::new(), VertexList::new());
         let by_all = p.brute_force_into(&mut all);
         let by_open = p.brute_force_among(p.lines_not_proven_empty(), &mut among);

@@ -54,7 +54,8 @@ const DEMO: &str = "demo";
 /// session 23; 13,415 since the board is built with a raised inlining
 /// threshold, `.cargo/config.toml`, session 26; 13,318 since `W^T` is
 /// written in place and telemetry reads the solved cycle by
-/// reference, session 29), below the [`BUDGET`].
+/// reference, session 29; 13,387 since the cold search after a lost warm
+/// start clips the cutting cable first, session 30), below the [`BUDGET`].
 const REGRESSION_CEILING: u32 = 13_500;
 
 /// The regression ceiling of the product's worst streamed step on the
@@ -69,9 +70,13 @@ const REGRESSION_CEILING: u32 = 13_500;
 /// product: 12 402, and 12 888 with two CPU hogs beside QEMU (the host's
 /// frames bunched: 208 telemetry samples for the usual 122); 11 492 to
 /// 13 218 over four runs with the phases timed. `cdpr stream`'s session
-/// (`e2e_stream`) is held to it too (11 021 measured). Other robots' are
-/// in [`TEST_CEILINGS`] (the budget for a robot without figures).
-pub(crate) const PRODUCT_CEILING: u32 = 14_000;
+/// (`e2e_stream`) is held to it too (11 021 measured). Since the cold
+/// search after a lost warm start clips the cutting cable's lines first
+/// (issue 17, session 30; the stream's second cycle, at the symmetric
+/// start, lost its warm start): 11 159, 11 346 and 11 580 over three
+/// runs (`cdpr stream` 11 028). Other robots' are in [`TEST_CEILINGS`]
+/// (the budget for a robot without figures).
+pub(crate) const PRODUCT_CEILING: u32 = 12_500;
 
 /// The worst step of the default robot's demo with the CiA 402 layer inside
 /// ([`LAYER_IN_STEP_VAR`]): measured 17 671 (issue 17, session 28), 17 553
@@ -79,7 +84,7 @@ pub(crate) const PRODUCT_CEILING: u32 = 14_000;
 const LAYER_IN_STEP_CEILING: u32 = 17_800;
 
 /// IPAnema 1's demo's worst step: measured 14 425 (an infeasible pose's
-/// cold search at cycle 3 156; issue 17, session 28), 14 350 (session 29).
+/// cold search at cycle 3 156; issue 17, session 28), 14 350 (session 29), 14 369 (session 30).
 const IPANEMA1_CEILING: u32 = 14_550;
 
 /// IPAnema 1's demo's worst step with the CiA 402 layer inside: measured
@@ -91,8 +96,11 @@ const IPANEMA1_LAYER_IN_STEP_CEILING: u32 = 18_500;
 /// stream`'s session): measured 15 449 and 15 756 in the runs of session
 /// 27 (16 076-16 406 while the product still timed its phases); QEMU runs
 /// the product with its clock, so the host's load moves it by several
-/// hundred (as [`PRODUCT_CEILING`]'s figures).
-const IPANEMA1_PRODUCT_CEILING: u32 = 17_000;
+/// hundred (as [`PRODUCT_CEILING`]'s figures). Since the cold search after
+/// a lost warm start clips the cutting cable's lines first (session 30):
+/// 13 154, 14 739 and 12 756 over three runs (the stream's cold start;
+/// 14 901-16 025 before, the lost warm start after it).
+const IPANEMA1_PRODUCT_CEILING: u32 = 16_000;
 
 /// The test command's regression ceilings for one robot: each a little
 /// above what was measured when it was set, so that a change that makes

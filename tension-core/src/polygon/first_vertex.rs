@@ -28,25 +28,43 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// `O(M)` checks), so the search finds a vertex exactly when the
     /// exhaustive one would.
     pub fn first_vertex(&self) -> Option<Vertex<T>> {
-        self.clip::<true>().0
+        self.clip::<true>(0).0
+    }
+
+    /// [`Self::first_vertex`] with cable `first`'s lines clipped first, then
+    /// the others in turn (`first + 1` on, wrapping): a vertex exactly when
+    /// there is one, found sooner when `first`'s lines are edges. The walk
+    /// passes the cable that cut its lost warm start off
+    /// ([`Self::walk_into`]): where a vertex went from one cycle to the
+    /// next, the line that took its place is usually that cable's (at a
+    /// symmetric pose, the twin of one of its lines). Not inlined: the
+    /// walk's code stays as it was.
+    #[inline(never)]
+    pub fn first_vertex_from(&self, first: usize) -> Option<Vertex<T>> {
+        self.clip::<true>(first).0
     }
 
     /// The lines [`Self::first_vertex`]'s clipping does not prove empty
     /// (a bit per line `2 k + side`), all of them clipped, none searched:
     /// every vertex the pair check accepts lies on two of them.
     pub fn lines_not_proven_empty(&self) -> u64 {
-        self.clip::<false>().1
+        self.clip::<false>(0).1
     }
 
     /// The clipping of every line against the other cables, with the first
     /// vertex searched as it goes (`FIND`: [`Self::first_vertex`], which
     /// returns at the first) or not (the lines it leaves open).
     #[inline(always)]
-    fn clip<const FIND: bool>(&self) -> (Option<Vertex<T>>, u64) {
+    fn clip<const FIND: bool>(&self, first: usize) -> (Option<Vertex<T>>, u64) {
         let none = 2 * M;
+        let first = if first < M { first } else { 0 };
         // Lines not proven empty (M <= 32, so 2 M bits fit).
         let mut open: u64 = 0;
-        for k1 in 0..M {
+        // `first`, then the others in turn (`first + 1`, ..., wrapping).
+        let mut next = first;
+        for _ in 0..M {
+            let k1 = next;
+            next = if next + 1 == M { 0 } else { next + 1 };
             if !self.used[k1] {
                 continue;
             }

@@ -38,17 +38,21 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     ) -> Result<PolygonSummary<T>, Error> {
         let mut held = false;
         let mut start = None;
+        // The cable whose lines the cold search clips first: the one that
+        // cut a lost warm start off (its lines are the likeliest edges near
+        // where the last vertex was), else the first.
+        let mut first_cable = 0;
         if let Some(pair) = warm {
             let h1 = line_index(pair.first);
             let h2 = line_index(pair.second);
             if h1 < 2 * M && h2 < 2 * M {
-                start = self.warm_vertex(h1, h2);
+                start = self.warm_vertex(h1, h2, &mut first_cable);
                 held = start.is_some();
             }
         }
         let (start, known) = match start {
             Some(Start { vertex, active, margin }) => (vertex, Some((active, margin))),
-            None => (self.first_vertex().ok_or(Error::Infeasible)?, None),
+            None => (self.first_vertex_from(first_cable).ok_or(Error::Infeasible)?, None),
         };
         // The caller's list still holds its last walk's successors (a control
         // loop's: the previous cycle's): each line's is tried first, when
@@ -465,8 +469,10 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// `u_k . p - lo_k >= -(tol_k + error)`), with its active lines and
     /// margin ([`Start`]). The check stops at the first cable that rejects
     /// the crossing (a lost warm start then costs the cold search no more
-    /// than it must); a held one's slacks are taken again for the rest.
-    fn warm_vertex(&self, h1: usize, h2: usize) -> Option<Start<T>> {
+    /// than it must), and names it in `cut`: the cold search clips its lines
+    /// first ([`Self::first_vertex_from`]); a held one's slacks are taken
+    /// again for the rest.
+    fn warm_vertex(&self, h1: usize, h2: usize, cut: &mut usize) -> Option<Start<T>> {
         if h1 / 2 == h2 / 2 || !self.is_used(h1) || !self.is_used(h2) {
             return None;
         }
@@ -478,6 +484,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
             // two slacks are NaN together or not at all; false for a NaN).
             let holds = min(nv - u.lo[k], u.hi[k] - nv) >= -(u.tol[k] + error);
             if !holds {
+                *cut = k;
                 return None;
             }
         }
