@@ -280,6 +280,10 @@ fn phases(
         let mut poly = TensionPolygon::zeroed();
         let Ok(()) = poly.set(&fact, f, limits) else { return };
         let t2 = clock.ticks();
+        // The cold search in index order. The walk starts it from a lost
+        // warm start's cutting cable (`first_vertex_from`); its worst case,
+        // every line clipped and then the pairs of the lines left open, is
+        // the same in any order, and the infeasible poses reach it.
         let first = poly.polygon.first_vertex();
         let t3 = clock.ticks();
         let (fa, po, se) =

@@ -28,7 +28,7 @@ impl<T: Real, const M: usize> FeasiblePolygon<T, M> {
     /// `O(M)` checks), so the search finds a vertex exactly when the
     /// exhaustive one would.
     pub fn first_vertex(&self) -> Option<Vertex<T>> {
-        self.clip::<true>(0).0
+        self.first_vertex_from(0)
     }
 
     /// [`Self::first_vertex`] with cable `first`'s lines clipped first, then
