@@ -4,6 +4,7 @@ use std::{
     ffi::OsStr,
     io::{BufRead, BufReader},
     process::{Command, Stdio},
+    sync::Mutex,
 };
 
 /// Seed of the property tests under `cargo xtask test`.
@@ -27,12 +28,52 @@ impl Tally {
     }
 }
 
+/// The failures of this run, each as printed: the test command repeats
+/// them just before its last line, so that the tail of a long log (all a
+/// CI page may show) says what failed.
+static FAILURES: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+/// Prints `==> {what}: FAILED ({why})` and keeps it for [`print_failures`].
+pub fn report_failure(what: &str, why: &str) {
+    println!("==> {what}: FAILED ({why})");
+    record_failure(format!("{what} ({})", shorten(why)));
+}
+
+/// Keeps a failure printed by someone else (a cargo test's or pytest's
+/// own line) for [`print_failures`].
+pub fn record_failure(line: String) {
+    if let Ok(mut failures) = FAILURES.lock() {
+        failures.push(line);
+    }
+}
+
+/// Repeats every failure of this run, one line each (nothing if none).
+pub fn print_failures() {
+    let Ok(failures) = FAILURES.lock() else { return };
+    if !failures.is_empty() {
+        println!("==> {} failure(s) in this run:", failures.len());
+        for f in failures.iter() {
+            println!("==>   {f}");
+        }
+    }
+}
+
+/// At most 600 characters of a failure's detail (the repeated list stays
+/// readable; the full text is where it was first printed).
+fn shorten(why: &str) -> String {
+    const LIMIT: usize = 600;
+    match why.char_indices().nth(LIMIT) {
+        Some((at, _)) => format!("{}...", &why[..at]),
+        None => why.to_string(),
+    }
+}
+
 /// Runs a command that counts as one check (formatting, lint, a build).
 pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
     let result = run_step(program, args);
     match &result {
         Ok(()) => println!("==> {name}: ok"),
-        Err(e) => println!("==> {name}: FAILED ({e})"),
+        Err(e) => report_failure(name, e),
     }
     Tally::one(result.is_ok())
 }
@@ -83,6 +124,9 @@ pub fn cargo_test(args: &[&str]) -> Tally {
     if let Some(out) = child.stdout.take() {
         for line in BufReader::new(out).lines().map_while(Result::ok) {
             println!("{line}");
+            if let Some(name) = failed_test(&line) {
+                record_failure(format!("cargo test {}: {name}", args.join(" ")));
+            }
             if let Some(result) = parse_result(&line) {
                 saw_result = true;
                 tally.add(result);
@@ -92,8 +136,17 @@ pub fn cargo_test(args: &[&str]) -> Tally {
     let ok = child.wait().map(|s| s.success()).unwrap_or(false);
     if !ok && (!saw_result || tally.failed == 0) {
         tally.failed += 1;
+        record_failure(format!(
+            "cargo test {}: failed without a failed test (a build error?)",
+            args.join(" ")
+        ));
     }
     tally
+}
+
+/// `test polygon::tests::clips ... FAILED` -> `polygon::tests::clips`.
+fn failed_test(line: &str) -> Option<&str> {
+    line.strip_prefix("test ")?.strip_suffix(" ... FAILED")
 }
 
 /// `test result: ok. 12 passed; 0 failed; ...` -> (12, 0).
@@ -120,5 +173,21 @@ mod tests {
         let t = parse_result("test result: FAILED. 3 passed; 2 failed; 0 ignored").unwrap();
         assert_eq!((t.passed, t.failed), (3, 2));
         assert!(parse_result("running 3 tests").is_none());
+    }
+
+    #[test]
+    fn names_failed_tests() {
+        assert_eq!(failed_test("test walk::tests::holds ... FAILED"), Some("walk::tests::holds"));
+        assert_eq!(failed_test("test walk::tests::holds ... ok"), None);
+        assert_eq!(failed_test("test result: FAILED. 3 passed; 2 failed"), None);
+    }
+
+    #[test]
+    fn shortens_long_details_only() {
+        assert_eq!(shorten("short"), "short");
+        let long = "é".repeat(700);
+        let cut = shorten(&long);
+        assert_eq!(cut.chars().count(), 603);
+        assert!(cut.ends_with("..."));
     }
 }

@@ -302,7 +302,7 @@ impl Checks {
     fn report(&mut self, name: &str, result: Result<String, String>) {
         match &result {
             Ok(detail) => println!("==> firmware test {name}: ok ({detail})"),
-            Err(detail) => println!("==> firmware test {name}: FAILED ({detail})"),
+            Err(detail) => crate::checks::report_failure(&format!("firmware test {name}"), detail),
         }
         if result.is_ok() {
             self.passed += 1;

@@ -35,7 +35,7 @@ use std::process::exit;
 
 use clap::{Parser, Subcommand};
 
-use checks::{cargo_test, check, Tally};
+use checks::{cargo_test, check, print_failures, report_failure, Tally};
 use firmware::TARGET;
 
 /// Poses of `cargo xtask stress` unless `--poses` says otherwise.
@@ -185,16 +185,17 @@ fn e2e(robot: &str) {
             for (name, result) in e2e::run(&robot) {
                 match &result {
                     Ok(detail) => println!("==> end-to-end: {name}: ok ({detail})"),
-                    Err(detail) => println!("==> end-to-end: {name}: FAILED ({detail})"),
+                    Err(detail) => report_failure(&format!("end-to-end: {name}"), detail),
                 }
                 tally.add(Tally { passed: result.is_ok() as usize, failed: result.is_err() as usize });
             }
         }
         Err(e) => {
-            println!("==> end-to-end: FAILED ({e})");
+            report_failure("end-to-end", &e);
             tally.failed += 1;
         }
     }
+    print_failures();
     println!("{} passed, {} failed", tally.passed, tally.failed);
     exit(if tally.failed == 0 { 0 } else { 1 });
 }
@@ -202,6 +203,7 @@ fn e2e(robot: &str) {
 /// Only the Python package's part of `test`, for working on it.
 fn python_only() {
     let tally = python::test();
+    print_failures();
     println!("{} passed, {} failed", tally.passed, tally.failed);
     exit(if tally.failed == 0 { 0 } else { 1 });
 }
@@ -209,7 +211,7 @@ fn python_only() {
 fn test() {
     let mut tally = Tally::default();
     if let Err(e) = firmware::setup() {
-        println!("==> set-up: FAILED ({e})");
+        report_failure("set-up", &e);
         tally.add(Tally { passed: 0, failed: 1 });
     }
     let cargo = env!("CARGO");
@@ -251,10 +253,11 @@ fn test() {
     match firmware::test() {
         Ok((passed, failed)) => tally.add(Tally { passed, failed }),
         Err(e) => {
-            println!("==> firmware: FAILED ({e})");
+            report_failure("firmware", &e);
             tally.add(Tally { passed: 0, failed: 1 });
         }
     }
+    print_failures();
     println!("{} passed, {} failed", tally.passed, tally.failed);
     exit(if tally.failed == 0 { 0 } else { 1 });
 }

@@ -74,7 +74,7 @@ pub fn test() -> Tally {
     let made = making.join().unwrap_or_else(|_| Err("the set-up thread panicked".into()));
     report(&format!("python: virtual environment {}", venv.display()), &made, &mut tally);
     if made.is_err() {
-        println!("==> python: the wheel and pytest: not run (no environment)");
+        crate::checks::report_failure("python: the wheel and pytest", "not run: no environment");
         tally.failed += 1;
         return tally;
     }
@@ -85,7 +85,7 @@ pub fn test() -> Tally {
         &mut tally,
     );
     if wheel.is_err() {
-        println!("==> python: pytest: not run (no wheel)");
+        crate::checks::report_failure("python: pytest", "not run: no wheel");
         tally.failed += 1;
         return tally;
     }
@@ -102,7 +102,7 @@ fn report(name: &str, result: &Result<(), String>, tally: &mut Tally) {
             tally.passed += 1;
         }
         Err(e) => {
-            println!("==> {name}: FAILED ({e})");
+            crate::checks::report_failure(name, e);
             tally.failed += 1;
         }
     }
@@ -191,7 +191,7 @@ fn pytest(venv: &Path, cli: &Path) -> Tally {
     {
         Ok(child) => child,
         Err(e) => {
-            println!("==> python: pytest: FAILED (cannot run {}: {e})", pytest.display());
+            crate::checks::report_failure("python: pytest", &format!("cannot run {}: {e}", pytest.display()));
             return Tally { passed: 0, failed: 1 };
         }
     };
@@ -199,6 +199,9 @@ fn pytest(venv: &Path, cli: &Path) -> Tally {
     if let Some(out) = child.stdout.take() {
         for line in BufReader::new(out).lines().map_while(Result::ok) {
             println!("{line}");
+            if let Some(test) = line.strip_prefix("FAILED ").or_else(|| line.strip_prefix("ERROR ")) {
+                crate::checks::record_failure(format!("python: pytest: {test}"));
+            }
             if let Some(t) = parse_summary(&line) {
                 tally = Some(t);
             }
@@ -208,6 +211,7 @@ fn pytest(venv: &Path, cli: &Path) -> Tally {
     let mut tally = tally.unwrap_or_default();
     if !ok && tally.failed == 0 {
         tally.failed += 1;
+        crate::checks::record_failure("python: pytest: failed without a failed test".to_string());
     }
     println!("==> python: pytest: {} passed, {} failed", tally.passed, tally.failed);
     tally
