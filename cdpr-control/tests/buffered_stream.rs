@@ -2,7 +2,7 @@
 //! interpolated setpoint solved every cycle, the stale rule on the buffer,
 //! its fill in telemetry, and what ends a stream.
 
-mod common;
+use crate::common;
 
 use common::IdealDrives;
 

@@ -2,7 +2,7 @@
 //! the pose and speed estimate, both feedback schemes and the faults and
 //! holds of the read side (unreadable drive, estimator failure).
 
-mod common;
+use crate::common;
 
 use cdpr_control::feedback::Scheme;
 use cdpr_control::protocol::{HostMessage, Reason, Rejection, Setpoint, State};

@@ -2,7 +2,7 @@
 //! Fault `drive` from any state, named in telemetry until a granted
 //! `ClearFault`, which the drives are told of (`clear_faults`).
 
-mod common;
+use crate::common;
 
 use cdpr_control::protocol::{DriveFault, DriveFaultCause, HostMessage, Reason, Setpoint, State};
 use cdpr_control::{NoClock, WinchDrives, WinchReading};

@@ -1,7 +1,7 @@
 //! The feedback module and the cable-length supervision through the
 //! control loop.
 
-mod common;
+use crate::common;
 
 use common::IdealDrives;
 

@@ -2,7 +2,7 @@
 //! the caller (which knows the robot it was built for) takes it, and it
 //! changes nothing else.
 
-mod common;
+use crate::common;
 
 use cdpr_control::protocol::{encode, HostMessage, State, MAX_FRAME};
 use cdpr_control::supervisor::SafetyLimits;

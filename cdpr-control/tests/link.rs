@@ -3,7 +3,7 @@
 //! receive work per cycle is bounded, methods over the budget are refused,
 //! and bursts of commands take only the diagram's edges.
 
-mod common;
+use crate::common;
 
 use common::{low, IdealDrives};
 

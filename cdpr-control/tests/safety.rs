@@ -3,7 +3,7 @@
 //! `SafetyLimits::DEFAULT`: stale after 50 cycles, fault after 100 cycles of
 //! holding, 200-cycle torque ramp, fault at the 5th overrun in a row).
 
-mod common;
+use crate::common;
 
 use common::low;
 

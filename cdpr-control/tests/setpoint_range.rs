@@ -2,7 +2,7 @@
 //! (`robots/suspended-8.toml`) is the range the firmware has always used,
 //! and its check is the comparisons it stands for.
 
-mod common;
+use crate::common;
 
 use cdpr_control::link::SetpointRange;
 use cdpr_protocol::Setpoint;

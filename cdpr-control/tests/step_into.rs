@@ -5,7 +5,7 @@
 //! cycle), the other writes into a report filled with other values before
 //! every cycle, and the two must print the same.
 
-mod common;
+use crate::common;
 
 use common::{low, moving_x, IdealDrives};
 

@@ -189,27 +189,3 @@ fn check_rows(what: &str, rows: &[Vec<f64>], count: usize) -> Result<(), CliErro
     }
     Ok(())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn samples_rest_at_waypoints() {
-        let w =
-            Waypoints::new(vec![0.0, 1.0, 3.0], vec![vec![0.0, 0.0], vec![1.0, 2.0], vec![1.0, 0.0]], None)
-                .unwrap();
-        let times = w.sample_times(10.0).unwrap();
-        assert_eq!(times.len(), 31);
-        assert_eq!(*times.last().unwrap(), 3.0);
-        for (t, p) in [(0.0, [0.0, 0.0]), (1.0, [1.0, 2.0]), (3.0, [1.0, 0.0])] {
-            let s = w.sample(t);
-            assert_eq!(s.pose, p.to_vec());
-            assert!(s.velocity.iter().all(|v| v.abs() < 1e-12));
-        }
-        let mid = w.sample(2.0);
-        assert!((mid.pose[1] - 1.0).abs() < 1e-12);
-        // Peak speed of the law is 35/16 times the mean speed.
-        assert!((mid.velocity[1] + 2.0 / 2.0 * 35.0 / 16.0).abs() < 1e-12);
-    }
-}

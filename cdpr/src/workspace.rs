@@ -770,35 +770,3 @@ pub fn run(args: &WorkspaceArgs) -> Result<WorkspaceReport, CliError> {
         files,
     })
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn grid_cells_cover_the_box() {
-        let g = Grid::new([0.0, 0.0, 0.0], [3.0, 2.0, 0.0], 0.5, 2);
-        assert_eq!(g.n, [6, 4, 1]);
-        assert_eq!(g.cells(), 24);
-        assert!((g.cell_measure() - 0.25).abs() < 1e-15);
-        assert!((g.measure() - 6.0).abs() < 1e-15);
-        assert!((g.centre(0, 0) - 0.25).abs() < 1e-15);
-        assert_eq!(g.centre(2, 0), 0.0);
-    }
-
-    #[test]
-    fn sweep_and_orientation_parsing() {
-        assert_eq!(parse_sweep("0:10:3").unwrap(), vec![0.0, 5.0, 10.0]);
-        assert_eq!(parse_sweep("2:9:1").unwrap(), vec![2.0]);
-        assert!(parse_sweep("0:10").is_err());
-        assert!(parse_sweep("0:x:3").is_err());
-        assert!(parse_sweep("0:1:0").is_err());
-        assert_eq!(
-            parse_orientation(Some("0.1, 0, -0.2"), RobotKind::Spatial6).unwrap(),
-            vec![0.1, 0.0, -0.2]
-        );
-        assert_eq!(parse_orientation(None, RobotKind::Planar3).unwrap(), vec![0.0]);
-        assert!(parse_orientation(Some("0.1"), RobotKind::Spatial6).is_err());
-        assert!(parse_orientation(Some("0.1"), RobotKind::Planar2).is_err());
-    }
-}

@@ -41,7 +41,7 @@ pub fn persisted_config(cases: u32, source_file: &'static str) -> ProptestConfig
 
 /// `base` cases times `CDPR_HOSTILE_SCALE` (default 1): the hostile
 /// campaigns run short in the test command and as long as asked for, e.g.
-/// `CDPR_HOSTILE_SCALE=100 cargo test --release --test hostile_inputs`.
+/// `CDPR_HOSTILE_SCALE=100 cargo test --release --test integration hostile_inputs::`.
 pub fn campaign_cases(base: u32) -> u32 {
     let scale = std::env::var("CDPR_HOSTILE_SCALE").ok().and_then(|s| s.parse::<u32>().ok()).unwrap_or(1);
     base.saturating_mul(scale.max(1))

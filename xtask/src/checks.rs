@@ -110,6 +110,9 @@ pub fn cargo_test(args: &[&str]) -> Tally {
         .arg("test")
         .args(args)
         .env("PROPTEST_RNG_SEED", PROPTEST_SEED)
+        // A clean clone's build (CI) gains nothing from incremental
+        // compilation's records, and writing them costs time.
+        .env("CARGO_INCREMENTAL", "0")
         .stdout(Stdio::piped())
         .spawn()
     {
