@@ -146,20 +146,20 @@ mod table {
     fn errors_name_line_and_column() {
         let e = parse("x,y\n1,2\n3,abc\n", RobotKind::Planar2, TimeColumn::Optional).unwrap_err();
         assert_eq!(e.message, "p.csv, line 3, column 2 (y): `abc` is not a number");
-        let e = parse("x,z\n", RobotKind::Planar2, TimeColumn::Optional).unwrap_err();
-        assert!(e.message.starts_with("p.csv, line 1, column 2: unknown column `z`"));
-        let e = parse("x\n", RobotKind::Planar2, TimeColumn::Optional).unwrap_err();
-        assert!(e.message.starts_with("p.csv, line 1: missing column `y`"));
-        let e = parse("x,y,fx\n", RobotKind::Planar2, TimeColumn::Optional).unwrap_err();
-        assert!(e.message.contains("missing column `fy`"));
-        let e = parse("x,y\n1,2,3\n", RobotKind::Planar2, TimeColumn::Optional).unwrap_err();
-        assert!(e.message.starts_with("p.csv, line 2: 3 fields, the header has 2"));
-        let e = parse("x,y\n", RobotKind::Planar2, TimeColumn::Required).unwrap_err();
-        assert!(e.message.contains("missing column `time`"));
-        let e = parse("time,x,y\n1,0,0\n1,0,0\n", RobotKind::Planar2, TimeColumn::Required).unwrap_err();
-        assert!(e.message.starts_with("p.csv, line 3, column 1 (time):"));
-        let e = parse("time,x,y\n1,nan,0\n", RobotKind::Planar2, TimeColumn::Required).unwrap_err();
-        assert!(e.message.contains("not a finite number"));
+        // (table, time column, what the message contains)
+        let cases = [
+            ("x,z\n", TimeColumn::Optional, "p.csv, line 1, column 2: unknown column `z`"),
+            ("x\n", TimeColumn::Optional, "p.csv, line 1: missing column `y`"),
+            ("x,y,fx\n", TimeColumn::Optional, "missing column `fy`"),
+            ("x,y\n1,2,3\n", TimeColumn::Optional, "p.csv, line 2: 3 fields, the header has 2"),
+            ("x,y\n", TimeColumn::Required, "missing column `time`"),
+            ("time,x,y\n1,0,0\n1,0,0\n", TimeColumn::Required, "p.csv, line 3, column 1 (time):"),
+            ("time,x,y\n1,nan,0\n", TimeColumn::Required, "not a finite number"),
+        ];
+        for (text, time, wanted) in cases {
+            let e = parse(text, RobotKind::Planar2, time).unwrap_err();
+            assert!(e.message.contains(wanted), "{text:?}: {}", e.message);
+        }
         assert!(parse("", RobotKind::Planar2, TimeColumn::Optional).is_err());
     }
 
