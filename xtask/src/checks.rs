@@ -23,8 +23,21 @@ impl Tally {
         self.failed += other.failed;
     }
 
-    fn one(ok: bool) -> Tally {
-        Tally { passed: ok as usize, failed: !ok as usize }
+    /// Prints `==> {name}: ok` (with the detail, if any) or, through
+    /// [`report_failure`], its failure, and counts it.
+    pub fn report(&mut self, name: &str, result: Result<String, String>) {
+        match result {
+            Ok(detail) if detail.is_empty() => println!("==> {name}: ok"),
+            Ok(detail) => println!("==> {name}: ok ({detail})"),
+            Err(why) => return self.fail(name, &why),
+        }
+        self.passed += 1;
+    }
+
+    /// A failure: printed, kept for [`print_failures`] and counted.
+    pub fn fail(&mut self, what: &str, why: &str) {
+        report_failure(what, why);
+        self.failed += 1;
     }
 }
 
@@ -34,7 +47,7 @@ impl Tally {
 static FAILURES: Mutex<Vec<String>> = Mutex::new(Vec::new());
 
 /// Prints `==> {what}: FAILED ({why})` and keeps it for [`print_failures`].
-pub fn report_failure(what: &str, why: &str) {
+fn report_failure(what: &str, why: &str) {
     println!("==> {what}: FAILED ({why})");
     record_failure(format!("{what} ({})", shorten(why)));
 }
@@ -70,12 +83,9 @@ fn shorten(why: &str) -> String {
 
 /// Runs a command that counts as one check (formatting, lint, a build).
 pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
-    let result = run_step(program, args);
-    match &result {
-        Ok(()) => println!("==> {name}: ok"),
-        Err(e) => report_failure(name, e),
-    }
-    Tally::one(result.is_ok())
+    let mut tally = Tally::default();
+    tally.report(name, run_step(program, args).map(|()| String::new()));
+    tally
 }
 
 /// Runs a command with its output shown; an error saying what failed.
@@ -118,8 +128,9 @@ pub fn cargo_test(args: &[&str]) -> Tally {
     {
         Ok(child) => child,
         Err(e) => {
-            println!("==> cannot run cargo test: {e}");
-            return Tally::one(false);
+            let mut tally = Tally::default();
+            tally.fail("cargo test", &format!("cannot run it: {e}"));
+            return tally;
         }
     };
     let mut tally = Tally::default();
@@ -183,6 +194,20 @@ mod tests {
         assert_eq!(failed_test("test walk::tests::holds ... FAILED"), Some("walk::tests::holds"));
         assert_eq!(failed_test("test walk::tests::holds ... ok"), None);
         assert_eq!(failed_test("test result: FAILED. 3 passed; 2 failed"), None);
+    }
+
+    #[test]
+    fn counts_and_keeps_what_it_reports() {
+        let mut tally = Tally::default();
+        tally.report("a check", Ok(String::new()));
+        tally.report("a measured check", Ok("12 instructions".into()));
+        tally.report("a failing check", Err("over its ceiling".into()));
+        tally.fail("a step not run", "no build");
+        assert_eq!((tally.passed, tally.failed), (2, 2));
+        let kept = FAILURES.lock().unwrap().clone();
+        assert!(kept.contains(&"a failing check (over its ceiling)".to_string()), "{kept:?}");
+        assert!(kept.contains(&"a step not run (no build)".to_string()), "{kept:?}");
+        assert!(!kept.iter().any(|f| f.starts_with("a check") || f.starts_with("a measured")), "{kept:?}");
     }
 
     #[test]

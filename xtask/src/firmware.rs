@@ -11,7 +11,7 @@
 //! figures the tests judge come from the records the programs log
 //! ([`cdpr_demo::report`]), not from their readable output.
 
-use crate::checks::{run_step, run_step_with};
+use crate::checks::{run_step, run_step_with, Tally};
 use cdpr_demo::exit;
 use cdpr_demo::report::{self, Record, Report};
 use cdpr_demo::{methods, BUDGET, EXPECTED_STATES, FRAMING_LIMIT, PERIOD_INSTRUCTIONS, RECEIVE_LIMIT};
@@ -232,14 +232,14 @@ pub fn run_demo(robot: &Path) -> Result<(), String> {
 /// [`TEST_ROBOTS`], each with the firmware built for it; the fault
 /// injection and the memory report for the first. An error only when the
 /// demo cannot be built or run at all.
-pub fn test() -> Result<(usize, usize), String> {
-    let mut tally = Checks::default();
+pub fn test() -> Result<Tally, String> {
+    let mut tally = Tally::default();
     for (n, file) in TEST_ROBOTS.iter().enumerate() {
         let robot = robot_path(file)?;
         let name = label(&robot);
         let run = run_firmware(DEMO, &robot, true)?;
         for (check, result) in DEMO_CHECKS.iter().zip(judge_demo(&run, ceilings(&robot).demo)) {
-            tally.report(&format!("[{name}] {check}"), result);
+            tally.report(&format!("firmware test [{name}] {check}"), result);
         }
         if n == 0 {
             for (program, code, what) in
@@ -247,14 +247,16 @@ pub fn test() -> Result<(usize, usize), String> {
             {
                 let outcome = run_firmware(program, &robot, true).and_then(|run| judge_injection(&run, code));
                 tally.report(
-                    &format!("[{name}] a {what} stops the drives first (zero torque, brakes on)"),
+                    &format!(
+                        "firmware test [{name}] a {what} stops the drives first (zero torque, brakes on)"
+                    ),
                     outcome,
                 );
             }
         }
         product_checks(&mut tally, &robot, n == 0);
         tally.report(
-            &format!("[{name}] the stress set of hard poses through every method (cdpr_demo::stress)"),
+            &format!("firmware test [{name}] the stress set of hard poses through every method (cdpr_demo::stress)"),
             run_stress(&robot, cdpr_demo::stress::SHORT_RUN),
         );
     }
@@ -264,12 +266,12 @@ pub fn test() -> Result<(usize, usize), String> {
     for file in TEST_ROBOTS {
         let robot = robot_path(file)?;
         tally.report(
-            &format!("[{}] the step with the CiA 402 drive layer inside ({LAYER_IN_STEP_VAR}) within its regression ceiling and the budget, no overrun, stack within its limit", label(&robot)),
+            &format!("firmware test [{}] the step with the CiA 402 drive layer inside ({LAYER_IN_STEP_VAR}) within its regression ceiling and the budget, no overrun, stack within its limit", label(&robot)),
             run_firmware_with(DEMO, &robot, true, &layer, RUN_TIMEOUT)
                 .and_then(|run| judge_layer_in_step(&run, ceilings(&robot).layer_in_step)),
         );
     }
-    Ok((tally.passed, tally.failed))
+    Ok(tally)
 }
 
 /// The build-time variable that puts the drive layer in the demo's measured
@@ -287,27 +289,6 @@ fn judge_layer_in_step(run: &Run, ceiling: u32) -> Result<String, String> {
         (Ok(step), Ok(stack)) => Ok(format!("{step}; stack {stack}")),
         (step, stack) => {
             Err(format!("{}; stack {}", step.unwrap_or_else(|e| e), stack.unwrap_or_else(|e| e)))
-        }
-    }
-}
-
-/// Passed and failed checks, each printed as it is decided.
-#[derive(Default)]
-struct Checks {
-    passed: usize,
-    failed: usize,
-}
-
-impl Checks {
-    fn report(&mut self, name: &str, result: Result<String, String>) {
-        match &result {
-            Ok(detail) => println!("==> firmware test {name}: ok ({detail})"),
-            Err(detail) => crate::checks::report_failure(&format!("firmware test {name}"), detail),
-        }
-        if result.is_ok() {
-            self.passed += 1;
-        } else {
-            self.failed += 1;
         }
     }
 }
@@ -454,12 +435,12 @@ fn judge_injection(run: &Run, code: i32) -> Result<String, String> {
 
 /// The product for `robot`: its sizes (with `memory`), then the
 /// end-to-end serial test.
-fn product_checks(tally: &mut Checks, robot: &Path, memory: bool) {
+fn product_checks(tally: &mut Tally, robot: &Path, memory: bool) {
     let name = label(robot);
     let built = build_product(robot);
     if !memory {
         if let Err(e) = built {
-            tally.report(&format!("[{name}] end-to-end: the product builds"), Err(e));
+            tally.report(&format!("firmware test [{name}] end-to-end: the product builds"), Err(e));
             return;
         }
     }
@@ -484,11 +465,11 @@ fn product_checks(tally: &mut Checks, robot: &Path, memory: bool) {
         }
     });
     if memory {
-        tally.report(&format!("[{name}] product firmware memory (.text, .data, .bss)"), sizes);
+        tally.report(&format!("firmware test [{name}] product firmware memory (.text, .data, .bss)"), sizes);
     }
     println!("==> end-to-end ({name}): the product firmware in QEMU, driven over its serial link");
     for (check, result) in crate::e2e::run(robot) {
-        tally.report(&format!("[{name}] end-to-end: {check}"), result);
+        tally.report(&format!("firmware test [{name}] end-to-end: {check}"), result);
     }
 }
 

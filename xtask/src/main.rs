@@ -35,7 +35,7 @@ use std::process::exit;
 
 use clap::{Parser, Subcommand};
 
-use checks::{cargo_test, check, print_failures, report_failure, Tally};
+use checks::{cargo_test, check, print_failures, Tally};
 use firmware::TARGET;
 
 /// Poses of `cargo xtask stress` unless `--poses` says otherwise.
@@ -183,17 +183,10 @@ fn e2e(robot: &str) {
     match firmware::setup().and_then(|()| firmware::build_product(&robot)) {
         Ok(()) => {
             for (name, result) in e2e::run(&robot) {
-                match &result {
-                    Ok(detail) => println!("==> end-to-end: {name}: ok ({detail})"),
-                    Err(detail) => report_failure(&format!("end-to-end: {name}"), detail),
-                }
-                tally.add(Tally { passed: result.is_ok() as usize, failed: result.is_err() as usize });
+                tally.report(&format!("end-to-end: {name}"), result);
             }
         }
-        Err(e) => {
-            report_failure("end-to-end", &e);
-            tally.failed += 1;
-        }
+        Err(e) => tally.fail("end-to-end", &e),
     }
     print_failures();
     println!("{} passed, {} failed", tally.passed, tally.failed);
@@ -211,8 +204,7 @@ fn python_only() {
 fn test() {
     let mut tally = Tally::default();
     if let Err(e) = firmware::setup() {
-        report_failure("set-up", &e);
-        tally.add(Tally { passed: 0, failed: 1 });
+        tally.fail("set-up", &e);
     }
     let cargo = env!("CARGO");
     tally.add(check("format", cargo, &["fmt", "--all", "--", "--check"]));
@@ -251,11 +243,8 @@ fn test() {
     tally.add(cargo_test(&[]));
     tally.add(python::test());
     match firmware::test() {
-        Ok((passed, failed)) => tally.add(Tally { passed, failed }),
-        Err(e) => {
-            report_failure("firmware", &e);
-            tally.add(Tally { passed: 0, failed: 1 });
-        }
+        Ok(firmware) => tally.add(firmware),
+        Err(e) => tally.fail("firmware", &e),
     }
     print_failures();
     println!("{} passed, {} failed", tally.passed, tally.failed);

@@ -61,7 +61,7 @@ pub fn test() -> Tally {
     let pyo3: [(&str, &OsStr); 1] = [("PYO3_PYTHON", OsStr::new("python3"))];
     let clippy = ["clippy", "-p", "cdpr-py", "--all-targets", "--", "-D", "warnings"];
     let result = run_step_with(cargo, &clippy, &pyo3);
-    report("clippy (python package, cdpr-py)", &result, &mut tally);
+    tally.report("clippy (python package, cdpr-py)", result.map(|()| String::new()));
     // The CLI with the features resolved for the package's crate too
     // (`-p cdpr-py`, only the `cdpr` binary built): the crates both need are
     // then compiled once, and maturin's build reuses them.
@@ -72,40 +72,25 @@ pub fn test() -> Tally {
     ));
 
     let made = making.join().unwrap_or_else(|_| Err("the set-up thread panicked".into()));
-    report(&format!("python: virtual environment {}", venv.display()), &made, &mut tally);
-    if made.is_err() {
-        crate::checks::report_failure("python: the wheel and pytest", "not run: no environment");
-        tally.failed += 1;
+    let no_environment = made.is_err();
+    tally.report(&format!("python: virtual environment {}", venv.display()), made.map(|()| String::new()));
+    if no_environment {
+        tally.fail("python: the wheel and pytest", "not run: no environment");
         return tally;
     }
     let wheel = build_wheel(&venv, &python, &target);
-    report(
+    tally.report(
         "python: the wheel (maturin, abi3), installed",
-        &wheel.as_ref().map(|_| ()).map_err(Clone::clone),
-        &mut tally,
+        wheel.as_ref().map(|_| String::new()).map_err(Clone::clone),
     );
     if wheel.is_err() {
-        crate::checks::report_failure("python: pytest", "not run: no wheel");
-        tally.failed += 1;
+        tally.fail("python: pytest", "not run: no wheel");
         return tally;
     }
     let cli = target.join("wheel").join("cdpr");
     tally.add(pytest(&venv, &cli));
     println!("==> python: {:.0} s in all", start.elapsed().as_secs_f64());
     tally
-}
-
-fn report(name: &str, result: &Result<(), String>, tally: &mut Tally) {
-    match result {
-        Ok(()) => {
-            println!("==> {name}: ok");
-            tally.passed += 1;
-        }
-        Err(e) => {
-            crate::checks::report_failure(name, e);
-            tally.failed += 1;
-        }
-    }
 }
 
 /// Makes (or keeps) the environment with the pinned requirements.
@@ -191,8 +176,9 @@ fn pytest(venv: &Path, cli: &Path) -> Tally {
     {
         Ok(child) => child,
         Err(e) => {
-            crate::checks::report_failure("python: pytest", &format!("cannot run {}: {e}", pytest.display()));
-            return Tally { passed: 0, failed: 1 };
+            let mut tally = Tally::default();
+            tally.fail("python: pytest", &format!("cannot run {}: {e}", pytest.display()));
+            return tally;
         }
     };
     let mut tally = None;
