@@ -204,6 +204,25 @@ enum Newest {
     Bad,
 }
 
+impl Newest {
+    /// `Good(s, cycle)`, written over a kept good setpoint field by field:
+    /// the whole setpoint moved into place is a library `memcpy` of 72
+    /// bytes on the board, about 100 instructions for every frame the step
+    /// takes (BENCHMARKS.md, session 32).
+    fn set_good(&mut self, s: &cdpr_protocol::Setpoint, cycle: u32) {
+        match self {
+            Newest::Good(kept, at) => {
+                kept.seq = s.seq;
+                kept.pose = s.pose.into();
+                kept.velocity = s.velocity.into();
+                kept.acceleration = s.acceleration.into();
+                *at = cycle;
+            }
+            _ => *self = Newest::Good(Setpoint::from(s), cycle),
+        }
+    }
+}
+
 /// What one cycle did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepReport {
@@ -602,7 +621,7 @@ impl ControlLoop {
             // A setpoint of its own ends a buffered stream.
             Event::Setpoint(s) => {
                 self.buffer.clear();
-                self.newest = Newest::Good(Setpoint::from(s), self.cycle);
+                self.newest.set_good(s, self.cycle);
             }
             Event::Point(p) => {
                 let bound = matches!(self.supervisor.state(), State::Enabled | State::Holding);

@@ -14,5 +14,6 @@ mod link;
 mod point_buffer;
 mod safety;
 mod saturation;
+mod setpoint_fields;
 mod setpoint_range;
 mod step_into;
