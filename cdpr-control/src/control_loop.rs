@@ -205,17 +205,13 @@ enum Newest {
 }
 
 impl Newest {
-    /// `Good(s, cycle)`, written over a kept good setpoint field by field:
-    /// the whole setpoint moved into place is a library `memcpy` of 72
-    /// bytes on the board, about 100 instructions for every frame the step
-    /// takes (BENCHMARKS.md, session 32).
+    /// `Good(s, cycle)`, written over a kept good setpoint in place
+    /// ([`Setpoint::assign`]: no 72-byte library copy for every frame the
+    /// step takes).
     fn set_good(&mut self, s: &cdpr_protocol::Setpoint, cycle: u32) {
         match self {
             Newest::Good(kept, at) => {
-                kept.seq = s.seq;
-                kept.pose = s.pose.into();
-                kept.velocity = s.velocity.into();
-                kept.acceleration = s.acceleration.into();
+                kept.assign(s);
                 *at = cycle;
             }
             _ => *self = Newest::Good(Setpoint::from(s), cycle),

@@ -33,6 +33,20 @@ impl Setpoint {
     }
 }
 
+impl Setpoint {
+    /// Writes the setpoint a protocol message carries over this one, field
+    /// by field (what [`From`] builds, in place: a whole setpoint moved is a
+    /// library copy of 72 bytes on the board, about 100 instructions;
+    /// BENCHMARKS.md, session 32).
+    #[inline]
+    pub(crate) fn assign(&mut self, s: &cdpr_protocol::Setpoint) {
+        self.seq = s.seq;
+        self.pose = SVector::from(s.pose);
+        self.velocity = SVector::from(s.velocity);
+        self.acceleration = SVector::from(s.acceleration);
+    }
+}
+
 impl From<&cdpr_protocol::Setpoint> for Setpoint {
     /// The setpoint a protocol message carries (unchecked: see `crate::link`).
     fn from(s: &cdpr_protocol::Setpoint) -> Self {
