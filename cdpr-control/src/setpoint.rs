@@ -31,9 +31,7 @@ impl Setpoint {
             acceleration: self.acceleration.into(),
         }
     }
-}
 
-impl Setpoint {
     /// Writes the setpoint a protocol message carries over this one, field
     /// by field (what [`From`] builds, in place: a whole setpoint moved is a
     /// library copy of 72 bytes on the board, about 100 instructions;
