@@ -205,6 +205,12 @@ pub fn robot_path(file: &str) -> Result<PathBuf, String> {
     path.canonicalize().map_err(|e| format!("robot file {}: {e}", path.display()))
 }
 
+/// A firmware check's name as the test command prints it:
+/// `firmware test [robot] check`.
+fn titled(robot: &str, check: &str) -> String {
+    format!("firmware test [{robot}] {check}")
+}
+
 /// The robot's name for the checks' labels: the file's stem.
 fn label(robot: &Path) -> String {
     robot.file_stem().map_or_else(|| robot.display().to_string(), |s| s.to_string_lossy().into_owned())
@@ -247,7 +253,7 @@ pub fn test() -> Result<Tally, String> {
         let name = label(&robot);
         let run = run_firmware(DEMO, &robot, true)?;
         for (check, result) in DEMO_CHECKS.iter().zip(judge_demo(&run, ceilings(&robot).demo)) {
-            tally.report(&format!("firmware test [{name}] {check}"), result);
+            tally.report(&titled(&name, check), result);
         }
         if n == 0 {
             for (program, code, what) in
@@ -255,16 +261,14 @@ pub fn test() -> Result<Tally, String> {
             {
                 let outcome = run_firmware(program, &robot, true).and_then(|run| judge_injection(&run, code));
                 tally.report(
-                    &format!(
-                        "firmware test [{name}] a {what} stops the drives first (zero torque, brakes on)"
-                    ),
+                    &titled(&name, &format!("a {what} stops the drives first (zero torque, brakes on)")),
                     outcome,
                 );
             }
         }
         product_checks(&mut tally, &robot, n == 0);
         tally.report(
-            &format!("firmware test [{name}] the stress set of hard poses through every method (cdpr_demo::stress)"),
+            &titled(&name, "the stress set of hard poses through every method (cdpr_demo::stress)"),
             run_stress(&robot, cdpr_demo::stress::SHORT_RUN),
         );
     }
@@ -274,7 +278,7 @@ pub fn test() -> Result<Tally, String> {
     for file in TEST_ROBOTS {
         let robot = robot_path(file)?;
         tally.report(
-            &format!("firmware test [{}] the step with the CiA 402 drive layer inside ({LAYER_IN_STEP_VAR}) within its regression ceiling and the budget, no overrun, stack within its limit", label(&robot)),
+            &titled(&label(&robot), &format!("the step with the CiA 402 drive layer inside ({LAYER_IN_STEP_VAR}) within its regression ceiling and the budget, no overrun, stack within its limit")),
             run_firmware_with(DEMO, &robot, true, &layer, RUN_TIMEOUT)
                 .and_then(|run| judge_layer_in_step(&run, ceilings(&robot).layer_in_step)),
         );
@@ -448,7 +452,7 @@ fn product_checks(tally: &mut Tally, robot: &Path, memory: bool) {
     let built = build_product(robot);
     if !memory {
         if let Err(e) = built {
-            tally.report(&format!("firmware test [{name}] end-to-end: the product builds"), Err(e));
+            tally.report(&titled(&name, "end-to-end: the product builds"), Err(e));
             return;
         }
     }
@@ -473,11 +477,11 @@ fn product_checks(tally: &mut Tally, robot: &Path, memory: bool) {
         }
     });
     if memory {
-        tally.report(&format!("firmware test [{name}] product firmware memory (.text, .data, .bss)"), sizes);
+        tally.report(&titled(&name, "product firmware memory (.text, .data, .bss)"), sizes);
     }
     println!("==> end-to-end ({name}): the product firmware in QEMU, driven over its serial link");
     for (check, result) in crate::e2e::run(robot) {
-        tally.report(&format!("firmware test [{name}] end-to-end: {check}"), result);
+        tally.report(&titled(&name, &format!("end-to-end: {check}")), result);
     }
 }
 
