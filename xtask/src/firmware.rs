@@ -81,9 +81,13 @@ const REGRESSION_CEILING: u32 = 13_450;
 /// 11 516 in session 31's runs. Session 31 set it 12 500 -> 13 500: the
 /// figure follows the host's pace (which setpoint the stream's cold start
 /// meets, and whether a second frame lands in that cycle), and IPAnema 1's
-/// went 2 700 above its usual worst in one clean-clone run. Other robots'
+/// went 2 700 above its usual worst in one clean-clone run. Session 33:
+/// the end-to-end test holds the first pose at rest before the stream
+/// (`e2e::HELD_SETPOINTS`), so the stream's first solve no longer depends
+/// on the host's pace: 11 165 and 11 173 (the held pose with two frames),
+/// 12 500. Other robots'
 /// are in [`TEST_CEILINGS`] (the budget for a robot without figures).
-pub(crate) const PRODUCT_CEILING: u32 = 13_500;
+pub(crate) const PRODUCT_CEILING: u32 = 12_500;
 
 /// The worst step of the default robot's demo with the CiA 402 layer inside
 /// ([`LAYER_IN_STEP_VAR`]): measured 17 671 (issue 17, session 28), 17 553
@@ -111,8 +115,12 @@ const IPANEMA1_LAYER_IN_STEP_CEILING: u32 = 18_300;
 /// run (the stream's cold start; 14 901-15 707 before, the lost warm start
 /// after it). Session 31: 12 810 to 14 184 in five runs, then **16 993** in
 /// a clean-clone run (over the 16 000 set in session 30, which failed the
-/// test command): set to 18 000, still within the 20 000 budget.
-const IPANEMA1_PRODUCT_CEILING: u32 = 18_000;
+/// test command): set to 18 000, still within the 20 000 budget. Session
+/// 33: with the first pose held at rest before the stream
+/// (`e2e::HELD_SETPOINTS`), 13 304 to 13 555 in five runs (two beside two
+/// CPU hogs; the held pose's step with two frames), and the moving
+/// cycles' worst 11 100 to 12 816: 14 500.
+const IPANEMA1_PRODUCT_CEILING: u32 = 14_500;
 
 /// The test command's regression ceilings for one robot: each a little
 /// above what was measured when it was set, so that a change that makes
