@@ -88,8 +88,8 @@ const TELEMETRY_PERIOD: u16 = 10;
 /// product's figures. Without the hold, the stream's first solve met
 /// whichever setpoint the host's pace put first, with QEMU's translation of
 /// the solver bunching the frames (seven to twenty a 10-cycle sample):
-/// IPAnema 1's worst went 12 691 to 16 993 from run to run; with it, 13 304
-/// to 13 555 (five runs, two of them beside two CPU hogs).
+/// IPAnema 1's worst went 12 691 to 16 993 from run to run; with it, 12 889
+/// to 13 768 (fourteen runs, two of them beside two CPU hogs).
 const HELD_SETPOINTS: u32 = 100;
 
 /// Setpoints streamed in the tracking phase (the trajectory's first 1.2 s,
