@@ -21,10 +21,11 @@
 //!    the winches rests at reset) makes the board report `homed`;
 //! 1. hold the trajectory's first pose at rest (100 setpoints, enabled
 //!    during the hold), then stream the demo trajectory's feasible part
-//!    (1200 setpoints, about 1 ms apart), and compare every telemetry sample's tensions and
-//!    torques with `tension-core` in `f64` on the host for the same setpoint
-//!    (feed-forward, the board's default scheme), and the board's pose
-//!    estimate from its encoders with the setpoint;
+//!    (1200 setpoints, about 1 ms apart), and compare every telemetry
+//!    sample's tensions and torques with `tension-core` in `f64` on the
+//!    host for the same setpoint (feed-forward, the board's default
+//!    scheme), and the board's pose estimate from its encoders with the
+//!    setpoint;
 //! 2. a corrupted frame: counted as rejected, the state stays Enabled;
 //! 3. NaN poses: Holding (bad setpoint), then Fault (held too long), torques
 //!    ramped to zero with the brakes engaged; then ClearFault and Enable
