@@ -117,10 +117,11 @@ const IPANEMA1_LAYER_IN_STEP_CEILING: u32 = 18_300;
 /// a clean-clone run (over the 16 000 set in session 30, which failed the
 /// test command): set to 18 000, still within the 20 000 budget. Session
 /// 33: with the first pose held at rest before the stream
-/// (`e2e::HELD_SETPOINTS`), 12 889 to 13 768 in fourteen runs (two beside
-/// two CPU hogs; the held pose's step with two frames), and the moving
-/// cycles' worst 11 100 to 12 816: 14 500.
-const IPANEMA1_PRODUCT_CEILING: u32 = 14_500;
+/// (`e2e::HELD_SETPOINTS`), 12 889 to 13 768 in eighteen runs (two beside
+/// two CPU hogs; the held pose's step with frames), and the moving
+/// cycles' worst 11 100 to 12 816; 14 269 in the clean-clone run of the
+/// test command (the held pose, setpoint 16): 15 000.
+const IPANEMA1_PRODUCT_CEILING: u32 = 15_000;
 
 /// The test command's regression ceilings for one robot: each a little
 /// above what was measured when it was set, so that a change that makes
