@@ -85,8 +85,8 @@ const TELEMETRY_PERIOD: u16 = 10;
 /// Setpoints at the trajectory's first pose, at rest, sent before the
 /// tracking phase's stream: the board is enabled at rest, as an operator's
 /// host would do it, and the held pose's step (IPAnema 1's dearest: 11 928
-/// with no frame, 12 200-13 700 with one or two and the estimator's work; issue 17, session 33) is in the
-/// product's figures. Without the hold, the stream's first solve met
+/// with no frame, 12 200-13 700 with one or two and the estimator's work;
+/// issue 17, session 33) is in the product's figures. Without the hold, the stream's first solve met
 /// whichever setpoint the host's pace put first, with QEMU's translation of
 /// the solver bunching the frames (seven to twenty a 10-cycle sample):
 /// IPAnema 1's worst went 12 691 to 16 993 from run to run; with it, 12 889
