@@ -90,8 +90,9 @@ const TELEMETRY_PERIOD: u16 = 10;
 /// whichever setpoint the host's pace put first, with QEMU's translation of
 /// the solver bunching the frames (seven to twenty a 10-cycle sample):
 /// IPAnema 1's worst went 12 691 to 16 993 from run to run; with it, 12 889
-/// to 14 269 (nineteen runs, two of them beside two CPU hogs, one the
-/// clean-clone run of the test command).
+/// to 14 269 in twenty runs (two beside two CPU hogs, two clean-clone runs
+/// of the test command), and 15 875 in a third clean-clone run: the first
+/// solve (a cold start) with what else landed in its cycle.
 const HELD_SETPOINTS: u32 = 100;
 
 /// Setpoints streamed in the tracking phase (the trajectory's first 1.2 s,
