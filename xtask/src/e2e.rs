@@ -85,10 +85,11 @@ const TELEMETRY_PERIOD: u16 = 10;
 /// Setpoints at the trajectory's first pose, at rest, sent before the
 /// tracking phase's stream: the board is enabled at rest, as an operator's
 /// host would do it, and the held pose's step (IPAnema 1's dearest: 11 928
-/// with no frame, 12 200-13 700 with one or two and the estimator's work;
-/// issue 17, session 33) is in the product's figures. Without the hold, the stream's first solve met
-/// whichever setpoint the host's pace put first, with QEMU's translation of
-/// the solver bunching the frames (seven to twenty a 10-cycle sample):
+/// with no frame, 12 200-13 700 with one or two; issue 17, session 33) is
+/// in the product's figures. Without the hold, the stream's first solve
+/// met whichever setpoint the host's pace put first, with QEMU's
+/// translation of the solver bunching the frames (seven to twenty a
+/// 10-cycle sample):
 /// IPAnema 1's worst went 12 691 to 16 993 from run to run; with it, 12 889
 /// to 14 269 in twenty runs (two beside two CPU hogs, two clean-clone runs
 /// of the test command), and 15 875 in a third clean-clone run: the first
@@ -289,18 +290,13 @@ impl Session {
     /// Sends the trajectory's setpoint of cycle `k` with the next sequence
     /// number and remembers it.
     fn send_setpoint(&mut self, k: u32) -> Result<(), String> {
-        self.seq += 1;
-        let wire = Setpoint { seq: self.seq, ..self.params.setpoint(k).to_wire() };
-        self.sent.insert(self.seq, wire);
-        self.send(&HostMessage::Setpoint(wire))
+        self.send_numbered(self.params.setpoint(k).to_wire())
     }
 
-    /// Sends the trajectory's first pose at rest (velocity and acceleration
-    /// zero) with the next sequence number and remembers it.
-    fn send_held_start(&mut self) -> Result<(), String> {
+    /// Sends `setpoint` with the next sequence number and remembers it.
+    fn send_numbered(&mut self, setpoint: Setpoint) -> Result<(), String> {
         self.seq += 1;
-        let first = self.params.setpoint(0).to_wire();
-        let wire = Setpoint { seq: self.seq, velocity: [0.0; 6], acceleration: [0.0; 6], ..first };
+        let wire = Setpoint { seq: self.seq, ..setpoint };
         self.sent.insert(self.seq, wire);
         self.send(&HostMessage::Setpoint(wire))
     }
@@ -822,9 +818,11 @@ fn track(s: &mut Session) -> Result<Vec<Telemetry>, String> {
     s.send(&HostMessage::TelemetryPeriod(TELEMETRY_PERIOD))?;
     let from = s.telemetry_count();
     s.start_stream();
+    // The trajectory's first pose at rest.
+    let held = Setpoint { velocity: [0.0; 6], acceleration: [0.0; 6], ..s.params.setpoint(0).to_wire() };
     for k in 0..HELD_SETPOINTS + TRACKING_SETPOINTS {
         if k < HELD_SETPOINTS {
-            s.send_held_start()?;
+            s.send_numbered(held)?;
         } else {
             s.send_setpoint(k - HELD_SETPOINTS)?;
         }
