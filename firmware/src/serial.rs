@@ -104,7 +104,13 @@ impl Snapshot {
 /// of bytes back to back, so one such gap held up to hundreds of
 /// interrupts, and the product's streamed step reported up to 20 418
 /// instructions for 10 500 of its own (a telemetry `step_cost` that
-/// depended on how the host's frames bunched).
+/// depended on how the host's frames bunched). Under QEMU the product's
+/// step now holds the interrupt off altogether ([`crate::bsp::with_receive_held`]):
+/// there each interrupt taken inside a timed span still moved the result
+/// by about -5 to +3 instructions (QEMU's asynchronous delivery under
+/// `-icount`, whatever this clock subtracts), which a backlog of bytes made
+/// thousands. On the board, where the interrupt must run, this clock takes
+/// its time out.
 #[derive(Debug, Clone, Copy)]
 pub struct TaskClock {
     entry_exit: u32,

@@ -93,7 +93,11 @@ const TELEMETRY_PERIOD: u16 = 10;
 /// IPAnema 1's worst went 12 691 to 16 993 from run to run; with it, 12 889
 /// to 14 269 in twenty runs (two beside two CPU hogs, two clean-clone runs
 /// of the test command), and 15 875 in a third clean-clone run: the first
-/// solve (a cold start) with what else landed in its cycle.
+/// solve (a cold start) with a burst of received bytes in its cycle, whose
+/// interrupts QEMU's `-icount` miscounted by a few instructions each (up
+/// to 1 518 in one step; session 34: the product's step now holds the
+/// receive interrupt off under QEMU, `bsp::with_receive_held`, and
+/// IPAnema 1's worst is 12 684 to 13 285, the departure from this hold).
 const HELD_SETPOINTS: u32 = 100;
 
 /// Setpoints streamed in the tracking phase (the trajectory's first 1.2 s,

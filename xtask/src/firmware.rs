@@ -87,9 +87,14 @@ const REGRESSION_CEILING: u32 = 13_450;
 /// on the host's pace: 11 165 to 11 569 (a moving cycle) over six runs,
 /// three of them clean-clone runs of the test command; but what else lands
 /// in the first solve's cycle still does (IPAnema 1's first solve reached
-/// 15 875 once): 13 000. Other robots'
+/// 15 875 once): 13 000. Session 34: bursts of received bytes were what
+/// landed there (QEMU miscounts each interrupt taken inside the step by a
+/// few instructions, and delivered up to 1 518 in one step); the product's
+/// step now holds the receive interrupt off under QEMU
+/// (`bsp::with_receive_held`): 11 134 to 11 569 over three runs (a moving
+/// cycle with two frames): 12 500. Other robots'
 /// are in [`TEST_CEILINGS`] (the budget for a robot without figures).
-pub(crate) const PRODUCT_CEILING: u32 = 13_000;
+pub(crate) const PRODUCT_CEILING: u32 = 12_500;
 
 /// The worst step of the default robot's demo with the CiA 402 layer inside
 /// ([`LAYER_IN_STEP_VAR`]): measured 17 671 (issue 17, session 28), 17 553
@@ -124,8 +129,14 @@ const IPANEMA1_LAYER_IN_STEP_CEILING: u32 = 18_300;
 /// cycles' worst 11 100 to 12 816; in clean-clone runs of the test
 /// command 14 269, 13 276 and **15 875** (the stream's first solve, a cold
 /// start at the symmetric centre, at setpoint 3: what else lands in that
-/// cycle still follows the host's pace): 17 000.
-const IPANEMA1_PRODUCT_CEILING: u32 = 17_000;
+/// cycle still follows the host's pace): 17 000. Session 34: what landed
+/// in that cycle was a burst of received bytes (the first solve reported
+/// 17 275 with 1 518 interrupts inside it, 12 700 of its own: QEMU
+/// miscounts each by a few instructions); with the receive interrupt held
+/// off during the step under QEMU (`bsp::with_receive_held`), 12 684 to
+/// 13 285 over eight runs (the departure from the held pose, a lost warm
+/// start; the first solve 12 600-12 700): 14 000.
+const IPANEMA1_PRODUCT_CEILING: u32 = 14_000;
 
 /// The test command's regression ceilings for one robot: each a little
 /// above what was measured when it was set, so that a change that makes

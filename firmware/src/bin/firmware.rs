@@ -143,28 +143,32 @@ mod app {
         let mut report = cdpr_control::StepReport::default();
         let mut releases = Releases::start().await;
         loop {
-            let start = task_clock.ticks();
-            bsp::feed_watchdog();
-            // At most FRAME_BUDGET frames (reassembled by the USART1
-            // interrupt), whatever arrives; the rest waits.
-            control.receive_frames(rx);
-            control.record_dropped(serial::dropped());
-            // QEMU has no platform: the stand-in's cables are where the
-            // host says at homing (nothing on the board).
-            // A Home is carried out only in Disabled.
-            if let Some(pose) = control.pending_home().copied() {
-                if control.supervisor().state() == cdpr_control::protocol::State::Disabled {
-                    let _ = drives.place_stand_in(control.controller().robot(), &pose);
-                }
-            }
-            // The phases are not timed here (nothing in the product reads
-            // them: telemetry carries the whole step's cost); the demo
-            // times them.
-            control.step_into(&cdpr_control::NoClock, drives, overrun, &mut report);
             // The step's own work: the receive interrupt's time within it
             // (bodies, entries and exits) is left out (bounded apart, see
-            // `serial`).
-            control.record_cost(clock::ticks_to_units(task_clock.since(start)));
+            // `serial`); under QEMU the interrupt waits until the step is
+            // done (`bsp::with_receive_held`).
+            let cost = bsp::with_receive_held(|| {
+                let start = task_clock.ticks();
+                bsp::feed_watchdog();
+                // At most FRAME_BUDGET frames (reassembled by the USART1
+                // interrupt), whatever arrives; the rest waits.
+                control.receive_frames(rx);
+                control.record_dropped(serial::dropped());
+                // QEMU has no platform: the stand-in's cables are where the
+                // host says at homing (nothing on the board).
+                // A Home is carried out only in Disabled.
+                if let Some(pose) = control.pending_home().copied() {
+                    if control.supervisor().state() == cdpr_control::protocol::State::Disabled {
+                        let _ = drives.place_stand_in(control.controller().robot(), &pose);
+                    }
+                }
+                // The phases are not timed here (nothing in the product
+                // reads them: telemetry carries the whole step's cost); the
+                // demo times them.
+                control.step_into(&cdpr_control::NoClock, drives, overrun, &mut report);
+                clock::ticks_to_units(task_clock.since(start))
+            });
+            control.record_cost(cost);
             // The encoders' stand-in (QEMU), outside the measured step.
             drives.advance(control.last_feasible_lengths());
             // The answer to `Identify` (kept until it fits the transmit

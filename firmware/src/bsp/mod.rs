@@ -10,6 +10,9 @@
 //! * [`TARGET`], a line naming where the build runs;
 //! * the bring-up the board needs: [`configure_clocks`],
 //!   [`configure_usart_pins`], [`start_watchdog`], [`feed_watchdog`];
+//! * [`with_receive_held`]: whether the product's step may hold the receive
+//!   interrupt off (QEMU, whose USART waits for the byte to be read) or
+//!   must let it run (the board);
 //! * [`exit`], the end of a program, and the defmt global logger.
 
 #[cfg(not(feature = "board"))]

@@ -49,6 +49,31 @@ pub fn start_watchdog(_: &IWDG) {}
 #[inline(always)]
 pub fn feed_watchdog() {}
 
+/// Runs `step` (the product's control step) with USART1's receive
+/// interrupt held off, then lets it in. Nothing is lost: QEMU's USART
+/// takes the next byte from its chardev only once the last one was read
+/// (RXNE clear), so the bytes wait in the chardev. And the step's
+/// instruction count is then its own: under `-icount` each byte interrupt
+/// taken inside a timed span moved the task clock's figure
+/// ([`crate::serial::TaskClock`]) by about -5 to +3 instructions, as
+/// measured, depending on the code it interrupted (QEMU's asynchronous
+/// delivery; a known loop came out short, the step long), and QEMU
+/// delivers a backlog back to back: the product's first solve on IPAnema 1
+/// met up to 1 518 of them in one step and reported 17 275 for 12 700 of
+/// its own (issue 17, session 34).
+#[inline(always)]
+pub fn with_receive_held<R>(step: impl FnOnce() -> R) -> R {
+    use cortex_m::peripheral::NVIC;
+    use stm32f4::stm32f405::Interrupt;
+    NVIC::mask(Interrupt::USART1);
+    let result = step();
+    // SAFETY: USART1's handler (the RTIC task bound to it) was unmasked
+    // before this call and only takes bytes into its own queue; unmasking
+    // restores that.
+    unsafe { NVIC::unmask(Interrupt::USART1) };
+    result
+}
+
 /// Ends QEMU with `code` as its exit status (semihosting).
 pub fn exit(code: i32) -> ! {
     semihosting::process::exit(code)
