@@ -618,7 +618,7 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
     let nan_start = s.telemetry_count();
     results.push(nan_poses(&mut s, nan_start)?);
     results.push(ramp_and_recover(&mut s, nan_start)?);
-    results.push(flood(&mut s)?);
+    results.push(flood(&mut s, crate::firmware::ceilings(file).product)?);
     let stop_start = s.telemetry_count();
     results.push(stream_stops(&s, stop_start));
     // The next phase renumbers from 1: keep what the tracking phase sent.
@@ -954,11 +954,6 @@ fn ramp_and_recover(s: &mut Session, before: usize) -> Result<Check, String> {
     ))
 }
 
-/// Most instructions a step may take during the flood: well below the
-/// 1 ms period (125 000 instructions at `-icount shift=3`); without the
-/// receive budget a flood made steps of 137 000 to 156 000.
-const FLOOD_STEP_LIMIT: u32 = 90_000;
-
 /// Junk bytes sent after each setpoint in the flood, one setpoint every
 /// [`FLOOD_PACE`]: with the 80-byte setpoint about 40 bytes a millisecond,
 /// most of what the board's 460 800 baud carries (46 bytes a millisecond;
@@ -974,8 +969,15 @@ const FLOOD_PACE: u32 = 3;
 /// Setpoints streamed in the flood.
 const FLOOD_SETPOINTS: u32 = 300;
 
-/// Phase 4, a flood while Enabled (after [`ramp_and_recover`]).
-fn flood(s: &mut Session) -> Result<Check, String> {
+/// Phase 4, a flood while Enabled (after [`ramp_and_recover`]): the
+/// junk is the receive interrupt's (bounded apart: the demo's receive
+/// flood), and the step, which takes at most two frames a cycle, is held
+/// to the robot's product ceiling `ceiling`, as the stream's is. (Until
+/// session 34 it was held to 90 000, well below the 1 ms period: under
+/// QEMU the step's figure also carried a miscount of the interrupts taken
+/// inside it, `bsp::with_receive_held`; without the receive budget a
+/// flood once made steps of 137 000 to 156 000.)
+fn flood(s: &mut Session, ceiling: u32) -> Result<Check, String> {
     let from = s.telemetry_count();
     let before = s.find_since(from.saturating_sub(1), |_| true).map(|t| t.counters);
     let mut x = 0x2545_f491u32;
@@ -1047,8 +1049,9 @@ fn flood(s: &mut Session) -> Result<Check, String> {
         c.rejected_framing + c.rejected_crc + c.rejected_decode + c.rejected_order
     };
     let figures = format!(
-        "{FLOOD_SETPOINTS} setpoints with {FLOOD_JUNK} junk bytes after each and a 1 KiB burst ({sent_bytes} bytes over {span} cycles: {:.0} bytes per ms); worst step {worst} instructions (limit {FLOOD_STEP_LIMIT}); rejected frames {} -> {}; dropped bytes {}; overruns {} -> {}; states {:?}",
+        "{FLOOD_SETPOINTS} setpoints with {FLOOD_JUNK} junk bytes after each and a 1 KiB burst ({sent_bytes} bytes over {span} cycles: {:.0} bytes per ms); worst step {worst} instructions (budget {}, ceiling {ceiling}); rejected frames {} -> {}; dropped bytes {}; overruns {} -> {}; states {:?}",
         sent_bytes as f64 / f64::from(span),
+        cdpr_demo::BUDGET,
         before.map_or(0, |c| rejected(&c)),
         last.map_or(0, |c| rejected(&c)),
         last.map_or(0, |c| c.dropped_bytes),
@@ -1061,12 +1064,12 @@ fn flood(s: &mut Session) -> Result<Check, String> {
         }
     );
     let ok = worst > 0
-        && worst <= FLOOD_STEP_LIMIT
+        && within_ceiling(worst, ceiling).is_ok()
         && !faulted
         && caught.is_some_and(|t| t.state == State::Enabled)
         && last.zip(before).is_some_and(|(l, b)| rejected(&l) > rejected(&b));
     Ok((
-        "a flood of junk at about the line rate: bounded step, counted, no fault".into(),
+        "a flood of junk at about the line rate: the step within its ceiling, counted, no fault".into(),
         if ok { Ok(figures) } else { Err(figures) },
     ))
 }
