@@ -108,6 +108,10 @@ pub struct Report {
     /// Cost of `tension_core`'s forward kinematics, warm from the previous
     /// answer, replayed over the encoders' stand-in along the script.
     pub forward: Spread,
+    /// The control step without the solver, worst over the loop's cycles
+    /// (each cycle's step less its solve), in the report's unit: what
+    /// [`crate::methods::STEP_REST`] states.
+    pub rest_worst: u32,
 }
 
 impl Report {
@@ -195,6 +199,7 @@ mod tests {
             framing_worst: u32::MAX,
             estimator: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
             forward: Spread { min: u32::MAX, median: u32::MAX, max: u32::MAX },
+            rest_worst: u32::MAX,
         }
     }
 

@@ -210,6 +210,9 @@ struct LoopResults<'a> {
     first_failure: Option<u32>,
     recovered: Option<u32>,
     period_ticks: u64,
+    /// The step less its solve, worst over the cycles
+    /// ([`Report::rest_worst`]).
+    rest_worst: u32,
 }
 
 /// The scripted run; never returns (exits through semihosting). `rig`: the
@@ -343,6 +346,7 @@ async fn realtime_loop(
         first_failure: None,
         recovered: None,
         period_ticks: 0,
+        rest_worst: 0,
     };
     r.transitions.push(control.supervisor().state());
     let ramp_cycles = control.supervisor().limits().ramp_cycles;
@@ -473,6 +477,8 @@ impl LoopResults<'_> {
         let rest = units(end.wrapping_sub(t_setpoint).saturating_sub(phases));
         self.breakdown.supervisor_and_drives.push(rest);
         let total = units(end.wrapping_sub(start));
+        let solve = report.solved.as_ref().map_or(0, |c| units(c.ticks.solver));
+        self.rest_worst = self.rest_worst.max(total.saturating_sub(solve));
         if total > self.breakdown.worst[0] {
             let c = report.solved.as_ref().map(|c| c.ticks).unwrap_or_default();
             self.breakdown.worst = [
@@ -572,6 +578,12 @@ fn print_loop_results(board: &Board, r: &LoopResults, step: &Summary, barycenter
         w[6],
         w[7],
         w[8],
+    );
+    defmt::println!(
+        "the step without its solve: worst {=u32} {=str} (stated {=u32}: a method is offered when its stated worst solve plus this fits the budget)",
+        r.rest_worst,
+        bsp::UNIT,
+        methods::STEP_REST,
     );
     let o = &r.outcomes;
     defmt::println!(
@@ -980,6 +992,7 @@ fn summarise(
         receive_worst: 0,
         framing_worst: 0,
         forward: Spread::default(),
+        rest_worst: r.rest_worst,
     }
 }
 
