@@ -345,6 +345,21 @@ impl Session {
         self.received.lock().unwrap().telemetry.len()
     }
 
+    /// The last telemetry sample received, if any.
+    fn latest(&self) -> Option<Telemetry> {
+        self.received.lock().unwrap().telemetry.last().copied()
+    }
+
+    /// How many samples after `from` satisfy `pred`, so far.
+    fn count_since(&self, from: usize, pred: impl Fn(&Telemetry) -> bool) -> usize {
+        self.received
+            .lock()
+            .unwrap()
+            .telemetry
+            .get(from..)
+            .map_or(0, |t| t.iter().filter(|t| pred(t)).count())
+    }
+
     fn telemetry_since(&self, from: usize) -> Vec<Telemetry> {
         self.received.lock().unwrap().telemetry[from..].to_vec()
     }
@@ -1106,6 +1121,21 @@ fn poison_frame() -> Vec<u8> {
     frame
 }
 
+/// Setpoints the new session of [`method_over_the_link`] streams at
+/// least, and at most (it goes on until [`METHOD_SAMPLES_MIN`] samples
+/// compare).
+const METHOD_SETPOINTS: u32 = 300;
+const METHOD_SETPOINTS_MAX: u32 = 1000;
+
+/// Enabled samples of the selected method the comparison needs (one
+/// sample every 10 cycles).
+const METHOD_SAMPLES_MIN: usize = 20;
+
+/// Setpoints the board must report beyond the one a request followed
+/// before the host takes the request as read (a frame is decoded in the
+/// step after it arrives, two at most a step).
+const REQUEST_READ_MARGIN: u32 = 3;
+
 /// Phase 6, a new host session once the stale fault (from sample `before`
 /// on) has ramped down: the poison frame, ClearFault, numbering from 1,
 /// methods the board does not offer refused, `puncture` selected while
@@ -1126,7 +1156,9 @@ fn method_over_the_link(
     s.send_raw(&poison_frame())?;
     s.seq = 0;
     s.start_stream();
-    for k in 0..300 {
+    let used = |t: &Telemetry| t.state == State::Enabled && t.solved && t.method == id;
+    let mut requests = Vec::new();
+    for k in 0..METHOD_SETPOINTS_MAX {
         s.send_setpoint(k)?;
         match k {
             5 => s.send(&HostMessage::ClearFault)?,
@@ -1137,26 +1169,57 @@ fn method_over_the_link(
                 }
                 s.send(&HostMessage::SelectMethod(id))?
             }
-            // After the stand-in of the winches (QEMU) has followed the
-            // new session's first pose (5 ms lag): Enable is refused while
-            // a cable is off the setpoint by more than the length check.
-            60 => s.send(&HostMessage::Enable)?,
+            // From 60 on, after the stand-in of the winches (QEMU) has
+            // followed the new session's first pose (5 ms lag). The
+            // request waits in the link's queue behind the setpoints sent
+            // before it (a setpoint a millisecond is about 80 bytes a
+            // millisecond, more than QEMU's USART delivers), and Enable is
+            // refused while a cable is off the setpoint by more than the
+            // length check; a refused request is not kept. So the host
+            // asks again, as an operator would, once the board has read
+            // past the last request and still reports itself disabled (or
+            // in fault).
+            _ if k >= 60 => {
+                let latest = s.latest();
+                let request = match latest.map(|t| t.state) {
+                    Some(State::Fault) => Some(HostMessage::ClearFault),
+                    Some(State::Disabled) | None => Some(HostMessage::Enable),
+                    Some(State::Enabled | State::Holding) => None,
+                };
+                let read_past =
+                    |seq: u32| latest.is_some_and(|t| t.setpoint_seq >= seq + REQUEST_READ_MARGIN);
+                if let Some(r) = request.filter(|_| requests.last().is_none_or(|&(seq, _)| read_past(seq))) {
+                    s.send(&r)?;
+                    requests.push((s.seq, r));
+                }
+            }
             _ => {}
         }
         s.pace(PACE);
+        // A loaded machine delays the board's clock or the host's, and
+        // with them the Enable: the stream goes on until the comparison
+        // has its samples.
+        if k + 1 >= METHOD_SETPOINTS && s.count_since(from, used) >= METHOD_SAMPLES_MIN {
+            break;
+        }
     }
     s.caught_up(from).ok_or("the firmware never reported the setpoints of the new session")?;
     let switched = s.telemetry_since(from);
     let counters_before =
         s.find_since(from.saturating_sub(1), |_| true).map(|t| t.counters).unwrap_or_default();
     let counters = switched.last().map(|t| t.counters).unwrap_or_default();
-    let chosen = compare(robot, method, &s.sent, &switched, |t| {
-        t.state == State::Enabled && t.solved && t.method == id
-    });
+    let chosen = compare(robot, method, &s.sent, &switched, used);
     let tension_tol = tolerances.tension;
     let refusals = counters.rejected_method - counters_before.rejected_method;
+    let states = {
+        let mut states: Vec<(u32, State)> = switched.iter().map(|t| (t.cycle, t.state)).collect();
+        states.dedup_by_key(|(_, state)| *state);
+        states
+    };
     let session = format!(
-        "poison frames rejected as range {} -> {}, order rejections {} -> {}, methods refused as over budget {refusals} (last rejection {})",
+        "{} setpoints, states (from cycle) {states:?}, requests {}; poison frames rejected as range {} -> {}, order rejections {} -> {}, methods refused as over budget {refusals} (last rejection {})",
+        s.seq,
+        requests.iter().map(|(seq, r)| format!("{r:?} after setpoint {seq}")).collect::<Vec<_>>().join(", "),
         counters_before.rejected_range,
         counters.rejected_range,
         counters_before.rejected_order,
@@ -1174,7 +1237,7 @@ fn method_over_the_link(
                 Err(session)
             }
             Err(e) => Err(format!("{e}; {session}")),
-            Ok(c) if c.samples < 20 => {
+            Ok(c) if c.samples < METHOD_SAMPLES_MIN => {
                 Err(format!("only {} enabled puncture samples of {}; {session}", c.samples, switched.len()))
             }
             Ok(c) if c.worst_tension > tension_tol => Err(format!(
