@@ -21,7 +21,8 @@
 //!    the winches rests at reset) makes the board report `homed`;
 //! 1. hold the trajectory's first pose at rest (100 setpoints, enabled
 //!    during the hold), then stream the demo trajectory's feasible part
-//!    (1200 setpoints, about 1 ms apart), and compare every telemetry
+//!    (1200 setpoints, 2 ms apart: as fast as the serial link carries
+//!    them, [`PACE`]), and compare every telemetry
 //!    sample's tensions and torques with `tension-core` in `f64` on the
 //!    host for the same setpoint (feed-forward, the board's default
 //!    scheme), and the board's pose estimate from its encoders with the
@@ -140,7 +141,7 @@ struct Session {
 }
 
 /// The host's clock of a stream, held to the board's: the host sends a
-/// frame a millisecond (of real time), but QEMU's virtual clock falls
+/// frame every [`PACE`] ms (of real time), but QEMU's virtual clock falls
 /// behind real time when QEMU gets less than the CPU it needs (a loaded
 /// 2-core machine: measured 4x slower in a CI run), and a stream paced by
 /// real time alone then arrives 4x too fast for the board's clock (the
@@ -764,8 +765,17 @@ fn estimates(sent: &HashMap<u32, Setpoint>, samples: &[Telemetry]) -> Check {
     )
 }
 
-/// The pause between two frames of a stream, ms ([`Session::pace`]).
-const PACE: u32 = 1;
+/// The pause between two setpoints of a stream, ms ([`Session::pace`]):
+/// as fast as the board's serial link carries them. A setpoint frame
+/// (about 80 bytes, 10 bits each on the line) takes 1.7 ms at the board's
+/// 460 800 baud. Until session 36 the host sent one a millisecond, twice
+/// what the line carries, and the frames queued behind the line without
+/// bound (the board read setpoint 138 when the host had sent 310, and a
+/// request sent after a setpoint waited as long): a stream no host can
+/// send over the real link. (`cdpr stream` sends trajectory points at
+/// 100 Hz and the board interpolates; this raw stream is the protocol's
+/// plain `Setpoint`, one a solve.)
+const PACE: u32 = 2;
 
 /// Before phase 0: `Identify` is answered with the identity of the robot
 /// file the firmware was built from (name, as the protocol truncates it,
@@ -1170,15 +1180,14 @@ fn method_over_the_link(
                 s.send(&HostMessage::SelectMethod(id))?
             }
             // From 60 on, after the stand-in of the winches (QEMU) has
-            // followed the new session's first pose (5 ms lag). The
-            // request waits in the link's queue behind the setpoints sent
-            // before it (a setpoint a millisecond is about 80 bytes a
-            // millisecond, more than QEMU's USART delivers), and Enable is
-            // refused while a cable is off the setpoint by more than the
-            // length check; a refused request is not kept. So the host
-            // asks again, as an operator would, once the board has read
-            // past the last request and still reports itself disabled (or
-            // in fault).
+            // followed the new session's first pose (5 ms lag). A loaded
+            // machine delays the request (it waits in the link's queue
+            // behind the setpoints sent before it), and Enable is refused
+            // while a cable is off the setpoint by more than the length
+            // check; a refused request is not kept. So the host asks
+            // again, as an operator would, once the board has read past
+            // the last request and still reports itself disabled (or in
+            // fault).
             _ if k >= 60 => {
                 let latest = s.latest();
                 let request = match latest.map(|t| t.state) {
@@ -1252,6 +1261,28 @@ fn method_over_the_link(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The board's serial link, baud (`firmware::serial::BAUD`; 8N1: 10
+    /// bits a byte).
+    const LINK_BAUD: u32 = 460_800;
+
+    #[test]
+    fn the_raw_stream_fits_the_serial_link() {
+        let mut longest = 0;
+        for robot in crate::firmware::TEST_ROBOTS {
+            let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(robot);
+            let params = host_robot(&file).unwrap().params;
+            for k in 0..HELD_SETPOINTS + TRACKING_SETPOINTS + METHOD_SETPOINTS_MAX {
+                let setpoint = Setpoint { seq: u32::MAX, ..params.setpoint(k).to_wire() };
+                let mut frame = [0u8; MAX_FRAME];
+                longest = longest.max(encode(&HostMessage::Setpoint(setpoint), &mut frame).unwrap());
+            }
+        }
+        // The longest frame's time on the line, us, within the pace.
+        let on_line_us = longest as u64 * 10 * 1_000_000 / u64::from(LINK_BAUD);
+        assert!(longest > 60, "{longest} bytes");
+        assert!(on_line_us <= u64::from(PACE) * 1000, "{longest} bytes take {on_line_us} us");
+    }
 
     #[test]
     fn holds_the_product_step_to_its_ceiling_and_the_budget() {
