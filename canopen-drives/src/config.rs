@@ -264,6 +264,23 @@ pub const fn added_loop_delay_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u3
     }
 }
 
+/// When, in ns from the cycle's start, the last position of the cycle
+/// (TPDO1, 4 bytes) has arrived on a bus: the step's frames queued
+/// `step_ns` in, the `drives_per_bus` RPDO1s and the SYNC as in
+/// [`added_loop_delay_ns`], then, `response_ns` after the SYNC, the
+/// drives' TPDO1s back to back. The next cycle's `read` (one period from
+/// the start) has every position only if this is at most the period.
+/// (Heartbeats, every 100 ms, push it later; the layer then extrapolates
+/// that drive's position for the cycle: `Node::reading`.)
+pub const fn last_position_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u32, response_ns: u32) -> u64 {
+    let bit_rate = if bit_rate == 0 { 1 } else { bit_rate } as u64;
+    let n = drives_per_bus as u64;
+    let bits = n * crate::frame::worst_case_bits(2) as u64
+        + crate::frame::worst_case_bits(0) as u64
+        + n * crate::frame::worst_case_bits(4) as u64;
+    step_ns as u64 + response_ns as u64 + bits * 1_000_000_000 / bit_rate
+}
+
 /// [`added_loop_delay_ns`] of the board: its step's frames queued 0.1 ms
 /// into the cycle, four drives a bus (the default split of eight), 1
 /// Mbit/s, [`Timing::DEFAULT`]'s cycle rate: 832.5 us.
@@ -279,6 +296,36 @@ mod delay_tests {
         // torques received at 175, 250, 325, 400 us: mean 287.5 us.
         assert_eq!(added_loop_delay_ns(100_000, 4, 1_000_000, 1000), 832_500);
         assert_eq!(BOARD_LOOP_DELAY_NS, 832_500);
+    }
+
+    /// The board's step is not 0.1 ms long: with the CiA 402 layer inside
+    /// it takes 13 747 instructions (median) to 18 112 (worst) under QEMU
+    /// (`CDPR_DEMO_CAN_LAYER=1 cargo xtask run --robot
+    /// robots/ipanema1.toml`), 0.12-0.16 ms at 1.5 cycles an instruction
+    /// at 168 MHz. What the positions lose in age the torques gain in
+    /// delay, so the added loop delay the PID predicts over is the same;
+    /// and the last position still arrives before the next read for any
+    /// step within the 20 000-instruction budget at up to 2 cycles an
+    /// instruction.
+    #[test]
+    fn a_longer_step_moves_the_schedule_not_the_delay() {
+        for step_ns in [0, 100_000, 161_714, 238_095, 300_000] {
+            assert_eq!(added_loop_delay_ns(step_ns, 4, 1_000_000, 1000), 832_500, "{step_ns}");
+        }
+        // The simulated bus's schedule (README, "One cycle's timing"):
+        // SYNC over 0.455 ms in, 20 us of response, 4 x 95 us of TPDO1.
+        assert_eq!(last_position_ns(100_000, 4, 1_000_000, 20_000), 855_000);
+        // A step's length in ns at 168 MHz, from instructions and half
+        // cycles an instruction.
+        let ns = |instructions: u64, half_cycles: u64| {
+            (instructions * half_cycles * 1_000_000_000 / 336_000_000) as u32
+        };
+        assert_eq!(ns(18_112, 3), 161_714);
+        assert_eq!(last_position_ns(ns(18_112, 3), 4, 1_000_000, 20_000), 916_714);
+        assert!(last_position_ns(ns(20_000, 4), 4, 1_000_000, 20_000) <= 1_000_000);
+        // The margin: a step longer than 0.245 ms loses a position a cycle.
+        assert!(last_position_ns(245_001, 4, 1_000_000, 20_000) > 1_000_000);
+        assert!(last_position_ns(245_000, 4, 1_000_000, 20_000) <= 1_000_000);
     }
 }
 
