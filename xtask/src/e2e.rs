@@ -1195,8 +1195,13 @@ fn method_over_the_link(
                     Some(State::Disabled) | None => Some(HostMessage::Enable),
                     Some(State::Enabled | State::Holding) => None,
                 };
-                let read_past =
-                    |seq: u32| latest.is_some_and(|t| t.setpoint_seq >= seq + REQUEST_READ_MARGIN);
+                // Of this session's numbering: not the last session's
+                // higher numbers, which the board reports until it reads
+                // this session's first setpoint.
+                let sent = s.seq;
+                let read_past = |seq: u32| {
+                    latest.is_some_and(|t| (seq + REQUEST_READ_MARGIN..=sent).contains(&t.setpoint_seq))
+                };
                 if let Some(r) = request.filter(|_| requests.last().is_none_or(|&(seq, _)| read_past(seq))) {
                     s.send(&r)?;
                     requests.push((s.seq, r));
