@@ -250,11 +250,9 @@ pub const fn added_loop_delay_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u3
     let bit_rate = if bit_rate == 0 { 1 } else { bit_rate } as u64;
     let cycle_hz = if cycle_hz == 0 { 1 } else { cycle_hz } as u64;
     let rpdo = crate::frame::worst_case_bits(2) as u64;
-    let sync = crate::frame::worst_case_bits(0) as u64;
     let n = drives_per_bus as u64;
     let period = 1_000_000_000 / cycle_hz;
-    let sync_end = step_ns as u64 + (n * rpdo + sync) * 1_000_000_000 / bit_rate;
-    let age = period.saturating_sub(sync_end);
+    let age = period.saturating_sub(sync_end_ns(step_ns, drives_per_bus, bit_rate));
     let torque = step_ns as u64 + rpdo * (n + 1) * 1_000_000_000 / (2 * bit_rate);
     let total = age + torque;
     if total > u32::MAX as u64 {
@@ -274,11 +272,18 @@ pub const fn added_loop_delay_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u3
 /// that drive's position for the cycle: `Node::reading`.)
 pub const fn last_position_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u32, response_ns: u32) -> u64 {
     let bit_rate = if bit_rate == 0 { 1 } else { bit_rate } as u64;
-    let n = drives_per_bus as u64;
-    let bits = n * crate::frame::worst_case_bits(2) as u64
-        + crate::frame::worst_case_bits(0) as u64
-        + n * crate::frame::worst_case_bits(4) as u64;
-    step_ns as u64 + response_ns as u64 + bits * 1_000_000_000 / bit_rate
+    let tpdos = drives_per_bus as u64 * crate::frame::worst_case_bits(4) as u64;
+    sync_end_ns(step_ns, drives_per_bus, bit_rate) + response_ns as u64 + tpdos * 1_000_000_000 / bit_rate
+}
+
+/// When, in ns from the cycle's start, a bus's SYNC has gone out: the
+/// step's frames queued `step_ns` in, the `drives_per_bus` RPDO1s (2
+/// bytes) first, then the SYNC, at `bit_rate` (at least 1) bit/s with
+/// worst-case stuffing.
+const fn sync_end_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u64) -> u64 {
+    let rpdo = crate::frame::worst_case_bits(2) as u64;
+    let sync = crate::frame::worst_case_bits(0) as u64;
+    step_ns as u64 + (drives_per_bus as u64 * rpdo + sync) * 1_000_000_000 / bit_rate
 }
 
 /// [`added_loop_delay_ns`] of the board: its step's frames queued 0.1 ms

@@ -308,7 +308,7 @@ impl Session {
 
     /// The board's last reported control cycle (0 before any telemetry).
     fn board_cycle(&self) -> u32 {
-        self.received.lock().unwrap().telemetry.last().map_or(0, |t| t.cycle)
+        self.latest().map_or(0, |t| t.cycle)
     }
 
     /// Starts a stream: [`Session::pace`] counts the host's milliseconds
@@ -1267,10 +1267,6 @@ fn method_over_the_link(
 mod tests {
     use super::*;
 
-    /// The board's serial link, baud (`firmware::serial::BAUD`; 8N1: 10
-    /// bits a byte).
-    const LINK_BAUD: u32 = 460_800;
-
     #[test]
     fn the_raw_stream_fits_the_serial_link() {
         let mut longest = 0;
@@ -1283,8 +1279,11 @@ mod tests {
                 longest = longest.max(encode(&HostMessage::Setpoint(setpoint), &mut frame).unwrap());
             }
         }
-        // The longest frame's time on the line, us, within the pace.
-        let on_line_us = longest as u64 * 10 * 1_000_000 / u64::from(LINK_BAUD);
+        // The longest frame's time on the line (8N1: 10 bits a byte), us,
+        // within the pace, at the rate `cdpr stream` paces to (the
+        // firmware's `serial::BAUD`).
+        let baud = cdpr::stream::session::Options::DEFAULT.baud;
+        let on_line_us = longest as u64 * 10 * 1_000_000 / u64::from(baud);
         assert!(longest > 60, "{longest} bytes");
         assert!(on_line_us <= u64::from(PACE) * 1000, "{longest} bytes take {on_line_us} us");
     }
