@@ -24,6 +24,7 @@ use crate::robot::load_robot;
 use crate::solve::count_failure;
 use crate::table::{pose_columns, read_csv};
 use crate::CliError;
+use robot_file::Readable;
 
 /// Arguments of `cdpr forward`.
 #[derive(Debug, Clone, clap::Args)]
@@ -122,7 +123,11 @@ pub fn run(args: &ForwardArgs) -> Result<ForwardReport, CliError> {
                         path,
                         line,
                         at,
-                        &format!("time {t} comes before the previous row's {last_time}"),
+                        &format!(
+                            "time {} comes before the previous row's {}",
+                            Readable(t),
+                            Readable(last_time)
+                        ),
                     ));
                 }
                 last_time = t;

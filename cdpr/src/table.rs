@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use tension_core::RobotKind;
 
 use crate::CliError;
+use robot_file::Readable;
 
 /// Pose column names of a kind, in the conventions' order.
 pub fn pose_columns(kind: RobotKind) -> &'static [&'static str] {
@@ -274,7 +275,11 @@ pub fn poses_from_raw(raw: &RawTable, kind: RobotKind, time: TimeColumn) -> Resu
                             path,
                             line,
                             Some((c + 1, "time")),
-                            &format!("time {v} does not come after the previous waypoint's {last_time}"),
+                            &format!(
+                                "time {} does not come after the previous waypoint's {}",
+                                Readable(v),
+                                Readable(last_time)
+                            ),
                         ));
                     }
                     last_time = v;

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use robot_file::Readable;
 use tension_core::RobotKind;
 
 use crate::table::{read_poses, TimeColumn};
@@ -83,8 +84,8 @@ impl Waypoints {
             return Err(CliError::input(format!(
                 "waypoint {}: time {} s does not follow {} s (times must increase strictly)",
                 k + 2,
-                times[k + 1],
-                times[k]
+                Readable(times[k + 1]),
+                Readable(times[k])
             )));
         }
         check_rows("pose", &poses, times.len())?;
@@ -127,7 +128,8 @@ impl Waypoints {
     pub fn sample_times(&self, rate: f64) -> Result<Vec<f64>, CliError> {
         if !(rate.is_finite() && rate > 0.0) {
             return Err(CliError::input(format!(
-                "--rate {rate}: the sample rate must be a positive number of hertz"
+                "--rate {}: the sample rate must be a positive number of hertz",
+                Readable(rate)
             )));
         }
         let (t0, t1) = (self.start(), self.end());
@@ -136,8 +138,9 @@ impl Waypoints {
         // worst infinite, never NaN.)
         if count > MAX_SAMPLES as f64 {
             return Err(CliError::input(format!(
-                "{:.0} s at {rate} Hz is more than {MAX_SAMPLES} samples; lower --rate",
-                t1 - t0
+                "{} s at {} Hz is more than {MAX_SAMPLES} samples; lower --rate",
+                Readable(t1 - t0),
+                Readable(rate)
             )));
         }
         let count = count as usize;

@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
+use robot_file::Readable;
 use tension_core::{Error, Method, RobotKind};
 
 use crate::output::{ensure_dir, num, write_bytes, write_csv};
@@ -385,7 +386,7 @@ pub fn scan(
         counts
     });
     let counts = counts.map_err(|e: Error| {
-        CliError::input(format!("platform mass {}: {}", mass.unwrap_or(f64::NAN), e.status()))
+        CliError::input(format!("platform mass {}: {}", Readable(mass.unwrap_or(f64::NAN)), e.status()))
     })?;
     Ok(GridResult {
         values,
@@ -460,7 +461,7 @@ fn plan(args: &WorkspaceArgs) -> Result<Plan, CliError> {
     if !(args.step.is_finite() && args.step > 0.0) {
         return Err(CliError::input(format!(
             "--step {}: the grid step must be a positive length in metres",
-            args.step
+            Readable(args.step)
         )));
     }
     let threads = match args.threads {
@@ -483,8 +484,9 @@ fn plan(args: &WorkspaceArgs) -> Result<Plan, CliError> {
     let estimate: f64 = (0..dims).map(|k| ((hi[k] - lo[k]) / args.step).round().max(1.0)).product();
     if estimate > MAX_CELLS as f64 {
         return Err(CliError::input(format!(
-            "--step {}: {estimate:.0} cells is more than {MAX_CELLS}; use a larger step",
-            args.step
+            "--step {}: {} cells is more than {MAX_CELLS}; use a larger step",
+            Readable(args.step),
+            Readable(estimate)
         )));
     }
     let grid = Grid::new(lo, hi, args.step, dims);
@@ -493,8 +495,9 @@ fn plan(args: &WorkspaceArgs) -> Result<Plan, CliError> {
     for p in &payloads {
         if base_mass + p < 0.0 {
             return Err(CliError::input(format!(
-                "--mass-sweep: payload {p} kg makes the mass {} kg negative",
-                base_mass + p
+                "--mass-sweep: payload {} kg makes the mass {} kg negative",
+                Readable(*p),
+                Readable(base_mass + p)
             )));
         }
     }

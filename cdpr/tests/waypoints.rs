@@ -150,7 +150,13 @@ fn long_spans_and_bad_rates_are_refused_before_allocating() {
     for rate in [1.0, 1000.0, 1e300, f64::MAX] {
         let e = w.sample_times(rate).unwrap_err();
         assert!(e.bad_input && e.message.contains("samples"), "{rate}: {e:?}");
+        // Readable: the span and the rate in a few digits (`{:.0}` wrote
+        // 301 digits for a rate of 1e300).
+        assert!(e.message.starts_with("1e13 s at ") && e.message.len() < 90, "{rate}: {e:?}");
     }
+    let short = Waypoints::new(vec![0.0, 1e6], vec![vec![0.0; 6], vec![0.1; 6]], None).unwrap();
+    let e = short.sample_times(1000.0).unwrap_err();
+    assert!(e.message.starts_with("1000000 s at 1000 Hz is more than 2000000 samples"), "{e:?}");
     for rate in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         let e = w.sample_times(rate).unwrap_err();
         assert!(e.bad_input && e.message.starts_with("--rate"), "{rate}: {e:?}");

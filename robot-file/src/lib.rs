@@ -124,6 +124,25 @@ impl std::fmt::Display for RobotFileError {
 
 impl std::error::Error for RobotFileError {}
 
+/// A number as a message shows it: as written (`12.5`, `0.05`) from
+/// `1e-4` to below `1e9`, in exponent form beyond (`1e300`, `2.5e-7`);
+/// either way the shortest digits that read back as the same `f64`. A
+/// plain `{}` writes 301 digits for `1e300`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Readable(pub f64);
+
+impl std::fmt::Display for Readable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        let plain = x == 0.0 || !x.is_finite() || (1e-4..1e9).contains(&x.abs());
+        if plain {
+            write!(f, "{x}")
+        } else {
+            write!(f, "{x:e}")
+        }
+    }
+}
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Limits {
@@ -378,7 +397,7 @@ impl RobotFile {
         if let Err(e) = probe_robot(self.platform(), [0.0; 3], [0.0; 3]) {
             let mass_ok = self.mass.is_finite() && self.mass >= 0.0;
             return if !mass_ok {
-                let what = format!("[platform] mass = {} must be finite and >= 0", self.mass);
+                let what = format!("[platform] mass = {} must be finite and >= 0", Readable(self.mass));
                 invalid(platform.mass.span(), what, e)
             } else if e == tension_core::Error::InvalidLimits {
                 let what = "[platform] inertia must be symmetric positive semi-definite".to_string();
@@ -402,7 +421,11 @@ impl RobotFile {
                 );
             }
             if let Err(e) = TensionLimits::new(Vector1::new(c.t_min), Vector1::new(c.t_max)) {
-                let rule = format!("limits t_min = {}, t_max = {} need 0 <= t_min < t_max", c.t_min, c.t_max);
+                let rule = format!(
+                    "limits t_min = {}, t_max = {} need 0 <= t_min < t_max",
+                    Readable(c.t_min),
+                    Readable(c.t_max)
+                );
                 let own = spanned.get_ref();
                 return match own.t_min.as_ref().or(own.t_max.as_ref()) {
                     Some(value) => invalid(value.span(), format!("cable {}: {rule}", k + 1), e),
@@ -631,13 +654,13 @@ fn drive_spec(text: &str, winch: Option<&WinchToml>, cables: usize) -> Result<Dr
             let torque_max = winch.map_or(f64::NAN, |w| w.torque_max);
             if !(value.is_finite() && value > 0.0) {
                 return Err(format(
-                    format!("[winch] rated_torque = {value} must be positive and finite"),
+                    format!("[winch] rated_torque = {} must be positive and finite", Readable(value)),
                     r.span(),
                 ));
             }
             if torque_max.is_nan() || torque_max / value * 1000.0 > f64::from(i16::MAX) {
                 return Err(format(
-                    format!("[winch] rated_torque = {value}: torque_max = {torque_max} is over 32.767 times it (the drives' target torque is an i16 in thousandths of the rated torque)"),
+                    format!("[winch] rated_torque = {}: torque_max = {} is over 32.767 times it (the drives' target torque is an i16 in thousandths of the rated torque)", Readable(value), Readable(torque_max)),
                     r.span(),
                 ));
             }
@@ -710,6 +733,35 @@ fn probe_robot(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_in_messages_stay_short_and_exact() {
+        for (x, shown) in [
+            (1e300, "1e300"),
+            (-2.5e-7, "-2.5e-7"),
+            (12.5, "12.5"),
+            (0.05, "0.05"),
+            (0.0, "0"),
+            (999_999_999.0, "999999999"),
+            (1e9, "1e9"),
+            (f64::NAN, "NaN"),
+            (f64::NEG_INFINITY, "-inf"),
+        ] {
+            let text = Readable(x).to_string();
+            assert_eq!(text, shown);
+            // The same f64 reads back.
+            let back: f64 = text.parse().unwrap();
+            assert!(back == x || (x.is_nan() && back.is_nan()), "{x}: {text}");
+        }
+        // A robot file's limit of 1e300 in the message as written, not in
+        // 301 digits.
+        let text = "name = \"t\"\nkind = \"planar2\"\n[limits]\nt_min = 5.0\nt_max = 1e300\n[platform]\nmass = 2.0\n\
+                    gravity = [0.0, -9.81, 0.0]\n[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
+                    [[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
+                    [[cable]]\nanchor = [1.0, 1.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n";
+        let e = RobotFile::parse(text).unwrap_err().to_string();
+        assert!(e.contains("t_max = 1e300 need") && e.len() < 120, "{e}");
+    }
 
     #[test]
     fn per_cable_override_and_defaults() {

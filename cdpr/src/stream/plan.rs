@@ -13,6 +13,7 @@ use tension_core::RobotKind;
 use crate::table::{read_poses, TimeColumn};
 use crate::trajectory::Waypoints;
 use crate::CliError;
+use robot_file::Readable;
 
 /// The points to stream, with where each came from (for messages).
 #[derive(Debug, Clone, PartialEq)]
@@ -38,7 +39,10 @@ impl Plan {
     /// `rate` Hz along the time law (at rest at every waypoint).
     pub fn from_waypoints(path: &Path, rate: f64) -> Result<Self, CliError> {
         if !(rate.is_finite() && (4.0..=1000.0).contains(&rate)) {
-            return Err(CliError::input(format!("--rate {rate}: the board takes points at 4 to 1000 Hz")));
+            return Err(CliError::input(format!(
+                "--rate {}: the board takes points at 4 to 1000 Hz",
+                Readable(rate)
+            )));
         }
         let w = Waypoints::read(path, RobotKind::Spatial6)?;
         let t0 = w.start();
