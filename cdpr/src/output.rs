@@ -6,6 +6,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use crate::CliError;
+use robot_file::Readable;
 
 fn temp_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
@@ -64,10 +65,12 @@ pub fn ensure_dir(dir: &Path) -> Result<(), CliError> {
     std::fs::create_dir_all(dir).map_err(|e| CliError::io(dir, &e))
 }
 
-/// Formats a number for the CSV tables: the shortest text that reads back
-/// as the same `f64`.
+/// Formats a number for the CSV tables: the shortest digits that read back
+/// as the same `f64`, in exponent form below `1e-4` and from `1e9` up
+/// ([`Readable`]: a pose's rounding off zero reads `-2.516726746174481e-32`,
+/// not in 48 characters).
 pub fn num(x: f64) -> String {
-    format!("{x}")
+    Readable(x).to_string()
 }
 
 /// Formats a sample time: at most nine decimals, trailing zeros dropped.
