@@ -524,10 +524,17 @@ pub fn run_compare(args: &CompareArgs) -> Result<CompareReport, CliError> {
                 opt(s.min_robustness.map(|x| x.0)),
                 opt(s.mean_robustness),
                 opt(s.largest_step.map(|x| x.0)),
-                num(s.solve_time.0 * 1e6),
-                num(s.solve_time.1 * 1e6),
+                num(microseconds(s.solve_time.0)),
+                num(microseconds(s.solve_time.1)),
             ]
         }),
     )?;
     Ok(CompareReport { table, rows })
+}
+
+/// A time measured in whole nanoseconds (`s` from a `Duration`), in
+/// microseconds without the rounding noise of `s * 1e6` (1.983 us, not
+/// 1.9829999999999999).
+fn microseconds(s: f64) -> f64 {
+    (s * 1e9).round() / 1e3
 }

@@ -198,6 +198,12 @@ fn compare_table_and_csv() {
         let solved: usize = r[2].parse().unwrap();
         let failed: usize = r[3].parse().unwrap();
         assert_eq!(solved + failed, 401);
+        // Solve times in whole nanoseconds: at most three decimals of a
+        // microsecond (`s * 1e6` wrote 1.9829999999999999).
+        for t in &r[7..9] {
+            let decimals = t.split_once('.').map_or(0, |(_, d)| d.len());
+            assert!(decimals <= 3 && t.parse::<f64>().unwrap() >= 0.0, "{t}");
+        }
     }
     // The walk and the brute force find the same barycenter.
     assert_eq!(rows[0][2], rows[1][2]);
