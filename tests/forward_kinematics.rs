@@ -6,7 +6,7 @@
 //! differences, its pseudo-inverse norm by nalgebra's SVD, host side only);
 //! the cold start over a grid of the stated region, the mirror pose of
 //! suspended-8; the Jacobian's sign; hostile inputs; a warm-started
-//! trajectory.
+//! trajectory; lengths that no pose has (one cable stretched or slack).
 
 use cdpr_integration_tests::{persisted_config, shipped_robot};
 use nalgebra::{DMatrix, Matrix3, Rotation3, SMatrix, SVector, Vector3};
@@ -704,4 +704,60 @@ fn warm_started_trajectory_is_continuous() {
     assert_eq!(rows, 2000);
     assert!(most.1 <= 2, "f32 warm path took {} iterations", most.1);
     assert!(most.0 <= 4, "f64 warm path took {} iterations", most.0);
+}
+
+// ---------------------------------------------------------------- (7)
+
+/// One cable stretched, slack or short by 5 cm to 50 cm at poses across the
+/// workspace: no pose has those lengths, and the answer is a failure,
+/// `inconsistent-lengths` (a least-squares minimum beyond the consistency
+/// threshold) or `no-convergence` (the iteration cap: at a large residual
+/// Gauss-Newton converges only linearly), warm from the true pose and cold;
+/// never `ok`, never another error. Prints the split. A run that reaches
+/// the least-squares minimum to the type's precision (the step's promised
+/// decrease below the rounding of the sum of squares) counts as converged:
+/// suspended-8 at its centre with cable 1 0.5 m long was `no-convergence`
+/// with the absolute stopping test alone (`cdpr forward`), and is
+/// `inconsistent-lengths`.
+#[test]
+fn a_stretched_or_slack_cable_is_never_a_pose() {
+    fn verdicts<T: Real>(name: &str) -> [usize; 2] {
+        let robot: Robot<T, 6, 8> = shipped_robot(name);
+        let settings = ForwardSettings::for_robot(&robot);
+        // [inconsistent, no-convergence]
+        let mut count = [0; 2];
+        for u in [[0.5, 0.5, 0.5], [0.2, 0.7, 0.4], [0.8, 0.3, 0.6]] {
+            let truth = pose_in(&robot, 0.15, u, [0.05, -0.05, 0.1]);
+            let good = lengths_of(&robot, &truth);
+            for cable in 0..8 {
+                for delta in [0.05, 0.2, 0.5, -0.05, -0.2] {
+                    let mut l = good;
+                    l[cable] += delta;
+                    for warm in [Some(cast::<T, 6>(&truth)), None] {
+                        match robot.forward_kinematics(&cast::<T, 8>(&l), warm.as_ref(), &settings) {
+                            Err(ForwardError::InconsistentLengths) => count[0] += 1,
+                            Err(ForwardError::NoConvergence) => count[1] += 1,
+                            Ok(sol) => panic!("{name}: cable {cable} {delta:+} m: ok, worst {:?}", sol.worst),
+                            Err(e) => panic!("{name}: cable {cable} {delta:+} m: {e}"),
+                        }
+                    }
+                }
+            }
+        }
+        count
+    }
+    for name in ["suspended-8", "ipanema1"] {
+        let (c64, c32) = (verdicts::<f64>(name), verdicts::<f32>(name));
+        println!("{name}: f64 {c64:?}, f32 {c32:?} (inconsistent-lengths, no-convergence)");
+        assert_eq!(c64[0] + c64[1], 240);
+        assert_eq!(c32[0] + c32[1], 240);
+    }
+    let robot: Robot<f64, 6, 8> = shipped_robot("suspended-8");
+    let mut l = lengths_of(&robot, &SVector::<f64, 6>::new(0.0, 0.0, 1.5, 0.0, 0.0, 0.0));
+    l[0] += 0.5;
+    let failure =
+        robot.forward_kinematics_attempt(&l, None, &ForwardSettings::for_robot(&robot)).unwrap_err();
+    assert_eq!(failure.error, ForwardError::InconsistentLengths);
+    let closest = failure.closest.unwrap();
+    assert!(closest.worst > 0.1 && closest.worst < 0.5, "{:?}", closest.worst);
 }
