@@ -17,7 +17,7 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
-use robot_file::{RobotFile, RobotFileErrorKind};
+use robot_file::{Readable, RobotFile, RobotFileErrorKind};
 use tension_core::{Error, Method, RobotKind};
 
 use crate::convert::{array_out, dict_to_toml, real_array, shape_text, vector, Real};
@@ -175,7 +175,7 @@ impl Robot {
     }
 
     fn pose_text(pose: &[f64]) -> String {
-        format!("[{}]", pose.iter().map(|v| format!("{v}")).collect::<Vec<_>>().join(", "))
+        format!("[{}]", pose.iter().map(|v| Readable(*v).to_string()).collect::<Vec<_>>().join(", "))
     }
 }
 
@@ -633,7 +633,8 @@ impl Robot {
     fn grid(&self, py: Python<'_>, step: f64, bounds: Option<&Bound<'_, PyAny>>) -> PyResult<Grid> {
         if !(step.is_finite() && step > 0.0) {
             return Err(PyValueError::new_err(format!(
-                "step: {step}; the grid step must be a positive length in metres"
+                "step: {}; the grid step must be a positive length in metres",
+                Readable(step)
             )));
         }
         let dims = if self.loaded.kind() == RobotKind::Spatial6 { 3 } else { 2 };
@@ -669,7 +670,9 @@ impl Robot {
         let estimate: f64 = (0..dims).map(|k| ((hi[k] - lo[k]) / step).round().max(1.0)).product();
         if estimate > MAX_CELLS as f64 {
             return Err(PyValueError::new_err(format!(
-                "step: {step}: {estimate:.0} cells is more than {MAX_CELLS}; use a larger step"
+                "step: {}: {} cells is more than {MAX_CELLS}; use a larger step",
+                Readable(step),
+                Readable(estimate)
             )));
         }
         Ok(Grid::new(lo, hi, step, dims))

@@ -73,6 +73,13 @@ def test_other_arguments_are_checked(s8):
         s8.workspace(float("nan"))
     with pytest.raises(ValueError, match="more than 50000000"):
         s8.workspace(1e-4)
+    # Numbers in messages in a few digits (1e-9 was 0.000000001, a pose's
+    # 1e300 301 digits).
+    with pytest.raises(ValueError, match=r"^step: 1e-9: 4\.2e28 cells is more than 50000000"):
+        s8.workspace(1e-9)
+    with pytest.raises(cdpr.NonFiniteError, match=r"at pose \[1e300, 0, 1\.5, 0, 0, 0\]") as info:
+        s8.solve([1e300, 0, 1.5, 0, 0, 0])
+    assert len(str(info.value)) < 200
     with pytest.raises(ValueError, match=r"bounds: expected shape \(3, 2\)"):
         s8.workspace(0.5, bounds=[[0, 1], [0, 1]])
     with pytest.raises(ValueError, match="bounds: y from 1 to 0"):
