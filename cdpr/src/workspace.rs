@@ -92,6 +92,26 @@ impl Grid {
         Self { lo, hi, n, dims }
     }
 
+    /// [`Self::new`] for a step given by a user (`cdpr workspace --step`,
+    /// Python's `Robot.workspace`): refused, with the reason after the
+    /// step's value (the caller names the option), when the step is not a
+    /// positive length or the grid would have more than [`MAX_CELLS`]
+    /// cells.
+    pub fn checked(lo: [f64; 3], hi: [f64; 3], step: f64, dims: usize) -> Result<Self, String> {
+        if !(step.is_finite() && step > 0.0) {
+            return Err(format!("{}: the grid step must be a positive length in metres", Readable(step)));
+        }
+        let estimate: f64 = (0..dims).map(|k| ((hi[k] - lo[k]) / step).round().max(1.0)).product();
+        if estimate > MAX_CELLS as f64 {
+            return Err(format!(
+                "{}: {} cells is more than {MAX_CELLS}; use a larger step",
+                Readable(step),
+                Readable(estimate)
+            ));
+        }
+        Ok(Self::new(lo, hi, step, dims))
+    }
+
     /// Cell size along axis `k`.
     pub fn h(&self, k: usize) -> f64 {
         (self.hi[k] - self.lo[k]) / self.n[k] as f64
@@ -458,12 +478,6 @@ fn plan(args: &WorkspaceArgs) -> Result<Plan, CliError> {
         None => Method::ImprovedClosedForm,
     };
     let orientation = parse_orientation(args.orientation.as_deref(), kind)?;
-    if !(args.step.is_finite() && args.step > 0.0) {
-        return Err(CliError::input(format!(
-            "--step {}: the grid step must be a positive length in metres",
-            Readable(args.step)
-        )));
-    }
     let threads = match args.threads {
         Some(n) if (1..=MAX_THREADS).contains(&n) => n,
         Some(n) => {
@@ -481,15 +495,8 @@ fn plan(args: &WorkspaceArgs) -> Result<Plan, CliError> {
         Some(b) => parse_bounds(b, dims, frame)?,
         None => frame,
     };
-    let estimate: f64 = (0..dims).map(|k| ((hi[k] - lo[k]) / args.step).round().max(1.0)).product();
-    if estimate > MAX_CELLS as f64 {
-        return Err(CliError::input(format!(
-            "--step {}: {} cells is more than {MAX_CELLS}; use a larger step",
-            Readable(args.step),
-            Readable(estimate)
-        )));
-    }
-    let grid = Grid::new(lo, hi, args.step, dims);
+    let grid =
+        Grid::checked(lo, hi, args.step, dims).map_err(|why| CliError::input(format!("--step {why}")))?;
     let model = robot.model()?;
     let base_mass = model.mass();
     for p in &payloads {

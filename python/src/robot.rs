@@ -12,7 +12,7 @@
 use std::path::PathBuf;
 
 use cdpr::robot::{LoadedRobot, Model, Query, SHAPES};
-use cdpr::workspace::{frame_box, scan, Grid, MAX_CELLS, MAX_THREADS};
+use cdpr::workspace::{frame_box, scan, Grid, MAX_THREADS};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -631,12 +631,6 @@ impl Robot {
 impl Robot {
     /// The workspace grid for `step` over `bounds` (or the frame).
     fn grid(&self, py: Python<'_>, step: f64, bounds: Option<&Bound<'_, PyAny>>) -> PyResult<Grid> {
-        if !(step.is_finite() && step > 0.0) {
-            return Err(PyValueError::new_err(format!(
-                "step: {}; the grid step must be a positive length in metres",
-                Readable(step)
-            )));
-        }
         let dims = if self.loaded.kind() == RobotKind::Spatial6 { 3 } else { 2 };
         let (mut lo, mut hi) = ([0.0; 3], [0.0; 3]);
         match bounds.filter(|b| !b.is_none()) {
@@ -656,8 +650,8 @@ impl Robot {
                         return Err(PyValueError::new_err(format!(
                             "bounds: {} from {} to {} is not a finite, non-empty range",
                             ["x", "y", "z"][k],
-                            lo[k],
-                            hi[k]
+                            Readable(lo[k]),
+                            Readable(hi[k])
                         )));
                     }
                 }
@@ -667,14 +661,6 @@ impl Robot {
                     frame_box(&self.loaded).map_err(|e| PyValueError::new_err(format!("workspace: {e}")))?;
             }
         }
-        let estimate: f64 = (0..dims).map(|k| ((hi[k] - lo[k]) / step).round().max(1.0)).product();
-        if estimate > MAX_CELLS as f64 {
-            return Err(PyValueError::new_err(format!(
-                "step: {}: {} cells is more than {MAX_CELLS}; use a larger step",
-                Readable(step),
-                Readable(estimate)
-            )));
-        }
-        Ok(Grid::new(lo, hi, step, dims))
+        Grid::checked(lo, hi, step, dims).map_err(|why| PyValueError::new_err(format!("step: {why}")))
     }
 }
