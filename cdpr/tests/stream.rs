@@ -2,7 +2,8 @@
 //! loop (`cdpr_control::ControlLoop`, suspended-8) run here in real time,
 //! 1 ms a cycle, with winches that follow its feasible setpoint, bytes in
 //! and telemetry out as on the board. Checks a completed stream, Ctrl-C, a
-//! fault, a board that goes silent, and bad input that sends nothing.
+//! fault, a board that goes silent, a port of garbage, and bad input that
+//! sends nothing.
 
 mod common;
 
@@ -321,6 +322,61 @@ fn a_board_that_stops_answering_is_reported_within_the_silence_limit() {
     assert!(took > Duration::from_millis(850) && took < Duration::from_millis(1900), "{took:?}");
     drop(session);
     drop(b.thread.join());
+}
+
+/// A port that carries bytes but no frame of this firmware (another baud
+/// rate, another program): said so, with the bytes and rejected frames
+/// counted, not "stopped answering"; a port that carries nothing is still
+/// silent.
+#[test]
+fn a_port_of_garbage_is_told_from_a_silent_board() {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    let noise = std::thread::spawn(move || {
+        let (mut socket, _) = listener.accept().unwrap();
+        socket.set_read_timeout(Some(Duration::from_millis(1))).unwrap();
+        // Pseudo-random bytes with a frame delimiter now and then, as a
+        // line at the wrong baud rate reads.
+        let mut x: u32 = 12345;
+        let until = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < until {
+            let mut chunk = [0u8; 64];
+            for b in chunk.iter_mut() {
+                x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                *b = (x >> 24) as u8;
+            }
+            if socket.write_all(&chunk).is_err() {
+                break;
+            }
+            let mut sink = [0u8; 256];
+            let _ = socket.read(&mut sink);
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    });
+    let link = cdpr::stream::transport::tcp(&address, Duration::from_secs(2)).unwrap();
+    let mut session = Session::new(link, Options::DEFAULT);
+    let dir = common::scratch("stream-garbage");
+    let plan = cdpr::stream::plan::Plan::from_waypoints(&waypoints(&dir), 100.0).unwrap();
+    struct Quiet;
+    impl cdpr::stream::session::Observer for Quiet {
+        fn telemetry(&mut self, _: f64, _: &Telemetry, _: cdpr::stream::session::Progress) {
+            panic!("telemetry out of noise");
+        }
+    }
+    let e = session
+        .stream(&plan.points, &identity_of("suspended-8"), &mut Quiet, &AtomicBool::new(false))
+        .unwrap_err();
+    match &e {
+        SessionError::Unintelligible { silent_for, bytes, rejected } => {
+            assert!(*silent_for >= Duration::from_millis(500), "{e}");
+            // About 64 bytes each 5 ms for the 0.5 s.
+            assert!(*bytes > 1000 && *rejected > 0, "{e}");
+            assert!(e.to_string().contains("baud rate"), "{e}");
+        }
+        other => panic!("{other}"),
+    }
+    drop(session);
+    drop(noise.join());
 }
 
 #[test]

@@ -61,8 +61,18 @@ pub enum Ending {
 /// Why a session failed.
 #[derive(Debug)]
 pub enum SessionError {
-    /// No telemetry for this long.
+    /// No telemetry for this long, and nothing else either.
     Silent(Duration),
+    /// No telemetry for this long, but bytes that are none (a serial port
+    /// at another baud rate, or another program on the port).
+    Unintelligible {
+        /// How long since the last message the host could read.
+        silent_for: Duration,
+        /// Bytes received since then.
+        bytes: usize,
+        /// Frames among them that failed their check (COBS, CRC, decoding).
+        rejected: usize,
+    },
     /// The board entered Fault: the reason and the hold reason.
     Fault(Reason, Reason),
     /// A request did not take effect: what, and the board's last rejection.
@@ -81,6 +91,12 @@ impl std::fmt::Display for SessionError {
             SessionError::Silent(d) => {
                 write!(f, "the board stopped answering (no telemetry for {:.1} s)", d.as_secs_f64())
             }
+            SessionError::Unintelligible { silent_for, bytes, rejected } => write!(
+                f,
+                "no telemetry for {:.1} s, yet {bytes} bytes arrived ({rejected} frames rejected): is the port's \
+                 baud rate the firmware's, and is this firmware on the other end?",
+                silent_for.as_secs_f64()
+            ),
             SessionError::Fault(r, h) if *r == Reason::HoldTimeout => {
                 write!(f, "the board faulted: {} (held for {})", r.name(), h.name())
             }
@@ -133,6 +149,8 @@ pub struct Session {
     last_heard: Instant,
     last: Option<Telemetry>,
     identity: Option<Identity>,
+    /// Bytes, and frames rejected, since the last message the host read.
+    unread: (usize, usize),
 }
 
 /// `name#hash` of an identity (as `robot_file::RobotIdentity` shows it).
@@ -159,6 +177,7 @@ impl Session {
             last_heard: now,
             last: None,
             identity: None,
+            unread: (0, 0),
         }
     }
 
@@ -183,13 +202,16 @@ impl Session {
         let n = self.link.read_some(&mut buf)?;
         let mut got = 0;
         for &b in &buf[..n] {
+            self.unread.0 += 1;
             match self.decoder.push::<DeviceMessage>(b) {
                 Some(Ok(DeviceMessage::Identity(i))) => {
                     self.last_heard = Instant::now();
+                    self.unread = (0, 0);
                     self.identity = Some(i);
                 }
                 Some(Ok(DeviceMessage::Telemetry(t))) => {
                     self.last_heard = Instant::now();
+                    self.unread = (0, 0);
                     let mut progress = progress;
                     if t.buffer_fill > 0 || t.buffer_lead_ms > 0 {
                         progress.played_ms = t.setpoint_seq;
@@ -198,11 +220,16 @@ impl Session {
                     self.last = Some(t);
                     got += 1;
                 }
-                _ => {}
+                Some(Err(_)) => self.unread.1 += 1,
+                None => {}
             }
         }
-        if self.last_heard.elapsed() > self.options.silence {
-            return Err(SessionError::Silent(self.last_heard.elapsed()));
+        let silent_for = self.last_heard.elapsed();
+        if silent_for > self.options.silence {
+            return Err(match self.unread {
+                (0, _) => SessionError::Silent(silent_for),
+                (bytes, rejected) => SessionError::Unintelligible { silent_for, bytes, rejected },
+            });
         }
         Ok(got)
     }
@@ -243,6 +270,7 @@ impl Session {
     /// Connects: telemetry on, the first sample within the silence limit.
     pub fn connect(&mut self, observer: &mut dyn Observer) -> Result<Telemetry, SessionError> {
         self.last_heard = Instant::now();
+        self.unread = (0, 0);
         self.send(&HostMessage::TelemetryPeriod(self.options.telemetry_period))?;
         let silence = self.options.silence;
         self.wait_for(observer, Progress::default(), silence, |_| true)?;
