@@ -211,7 +211,7 @@ fn cases() -> Vec<Case> {
             good.replace("t_max = 400.0", "t_max = 1e308"),
             poses,
             "barycenter",
-            vec!["[limits]: limits t_min = 50, t_max = 1e308 need", "(invalid-limits)"],
+            vec!["[limits]: limits t_min = 50, t_max = 1e308: t_max is too large", "(invalid-limits)"],
         ),
         solve_case(
             "unsupported cable count",

@@ -421,11 +421,16 @@ impl RobotFile {
                 );
             }
             if let Err(e) = TensionLimits::new(Vector1::new(c.t_min), Vector1::new(c.t_max)) {
-                let rule = format!(
-                    "limits t_min = {}, t_max = {} need 0 <= t_min < t_max",
-                    Readable(c.t_min),
-                    Readable(c.t_max)
-                );
+                let (t_min, t_max) = (Readable(c.t_min), Readable(c.t_max));
+                let rule = if c.t_min >= 0.0 && c.t_min < c.t_max {
+                    // In order, but too large: tension-core's other rule.
+                    format!(
+                        "limits t_min = {t_min}, t_max = {t_max}: t_max is too large (the methods' sums of \
+                         squares of tensions must stay finite)"
+                    )
+                } else {
+                    format!("limits t_min = {t_min}, t_max = {t_max} need 0 <= t_min < t_max")
+                };
                 let own = spanned.get_ref();
                 return match own.t_min.as_ref().or(own.t_max.as_ref()) {
                     Some(value) => invalid(value.span(), format!("cable {}: {rule}", k + 1), e),
@@ -760,7 +765,7 @@ mod tests {
                     [[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
                     [[cable]]\nanchor = [1.0, 1.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n";
         let e = RobotFile::parse(text).unwrap_err().to_string();
-        assert!(e.contains("t_max = 1e300 need") && e.len() < 120, "{e}");
+        assert!(e.contains("t_min = 5, t_max = 1e300: t_max is too large (") && e.len() < 160, "{e}");
     }
 
     #[test]
