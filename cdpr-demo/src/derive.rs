@@ -290,7 +290,16 @@ fn to_f32(robot: &Robot68) -> Result<Robot<f32, 6, 8>, String> {
         inertia: p.inertia.cast::<f32>(),
     };
     let limits = TensionLimits::new(robot.limits().min().cast::<f32>(), robot.limits().max().cast::<f32>())
-        .map_err(|e| format!("limits in f32: {}", e.status()))?;
+        .map_err(|e| {
+        // The file's limits passed in f64; in the board's f32 only the
+        // size can fail them.
+        let most = (f32::MAX / 8.0).sqrt();
+        format!(
+            "limits in f32, the board's precision: {} (t_max at most {most:.1e} N: the methods' sums of \
+                 squares of 8 tensions must stay finite)",
+            e.status()
+        )
+    })?;
     let winch = match robot.winch() {
         Some(w) => Some(
             Winch::new(w.drum_radius as f32, w.gear_ratio as f32, w.efficiency as f32, w.torque_max as f32)

@@ -36,3 +36,16 @@ fn suspended_8_and_ipanema1() {
         assert_eq!(derived(file).1.params, p);
     }
 }
+
+/// Limits that `f64` holds but the board's `f32` does not (t_max = 1e20 N,
+/// beyond 6.5e18): refused with the bound, not a bare `invalid-limits`.
+#[test]
+fn limits_too_large_for_the_boards_f32_name_the_bound() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/suspended-8.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.contains("t_max = 350.0\n"));
+    let file = robot_file::RobotFile::parse(&text.replacen("t_max = 350.0\n", "t_max = 1e20\n", 1)).unwrap();
+    let robot = file.to_robot::<f64, 6, 8>().unwrap();
+    let e = derive(&robot).unwrap_err();
+    assert!(e.contains("limits in f32") && e.contains("t_max at most 6.5e18 N"), "{e}");
+}
