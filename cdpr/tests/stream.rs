@@ -243,6 +243,37 @@ fn a_stream_homes_enables_plays_every_point_and_disables() {
     assert!(status.contains("enabled") && status.contains("points"), "{status}");
     // All the points arrived (at most 60 bytes each, at least 55 here).
     assert!(b.received.load(Ordering::Relaxed) >= 201 * 55);
+    // The board played at the pace asked: it waited for points at most
+    // for a moment (a host descheduled past its lead, as above), and
+    // refused none.
+    assert!(report.feed.played_ms > 1800 && report.feed.waited_ms < 200, "{:?}", report.feed);
+    assert_eq!(report.refused.0, 0, "{report}");
+}
+
+/// What a stream that did not play as planned reports, after "completed":
+/// the points the board refused, and how long it waited for points.
+#[test]
+fn the_report_says_what_did_not_play_as_planned() {
+    let clean = stream::Report {
+        ending: Ending::Completed,
+        samples: 600,
+        points: 601,
+        tensions: (11.6, 23.2),
+        feed: stream::FeedWait::default(),
+        refused: (0, "none"),
+    };
+    assert_eq!(
+        clean.to_string(),
+        "completed: 601 points sent, 600 telemetry samples, tensions 11.60..23.20 N"
+    );
+    let mut feed = stream::FeedWait::default();
+    feed.waited_ms = 924;
+    feed.played_ms = 1906;
+    let late = stream::Report { refused: (144, "buffer-full"), feed, ..clean };
+    let text = late.to_string();
+    assert!(text.starts_with("completed: 601 points sent"), "{text}");
+    assert!(text.contains("; the board refused 144 points (last rejection: buffer-full)"), "{text}");
+    assert!(text.contains("; the board waited 0.924 s for points while it played 1.906 s"), "{text}");
 }
 
 #[test]
@@ -320,6 +351,90 @@ fn a_board_that_stops_answering_is_reported_within_the_silence_limit() {
     }
     // Silent from cycle 400 (about 0.4 s after connecting), reported 0.5 s later.
     assert!(took > Duration::from_millis(850) && took < Duration::from_millis(1900), "{took:?}");
+    drop(session);
+    drop(b.thread.join());
+}
+
+/// Streams in a row on one board, as an operator runs `cdpr stream` again:
+/// each later one starts while the board still reports the last one's
+/// play time (2000 ms) until it plays the new points. Taken for the new
+/// stream's play time, that sent every point at once into the 32-point
+/// buffer (`buffer-full`: points lost, the motion played without them, or
+/// Enable refused; seen on the firmware in QEMU). And at 500 Hz the 80 ms
+/// lead is 40 points, more than the buffer holds: the host keeps at most
+/// 31 ahead of the play time. At 400 Hz the period is 2.5 ms, off the
+/// board's millisecond times: each point is the trajectory at its own
+/// millisecond (sampled between and rounded, poses 0.5 ms off their times
+/// gave the board's cubic accelerations of hundreds of m/s^2, and the
+/// setpoints were infeasible: Holding). No point is refused, none waited
+/// for, never Holding.
+#[test]
+fn streams_in_a_row_at_any_rate_lose_no_point() {
+    let dir = common::scratch("stream-twice");
+    let b = board(Trouble::None);
+    let link = cdpr::stream::transport::tcp(&b.address, Duration::from_secs(2)).unwrap();
+    let mut session = Session::new(link, Options::DEFAULT);
+    // The waits, and the points refused (out of order, late or the buffer
+    // full; the counters run on from session to session) at the first and
+    // the last sample.
+    struct Feed(stream::FeedWait, Option<u32>, u32, Vec<State>);
+    impl cdpr::stream::session::Observer for Feed {
+        fn telemetry(&mut self, _: f64, t: &Telemetry, p: cdpr::stream::session::Progress) {
+            self.0.sample(t, p.end_ms);
+            if self.3.last() != Some(&t.state) {
+                self.3.push(t.state);
+            }
+            let refused = stream::points_refused(t);
+            self.1.get_or_insert(refused);
+            self.2 = refused;
+        }
+    }
+    for (run, rate) in [500.0, 250.0, 400.0].into_iter().enumerate() {
+        let plan = cdpr::stream::plan::Plan::from_waypoints(&waypoints(&dir), rate).unwrap();
+        let mut feed = Feed(stream::FeedWait::default(), None, 0, Vec::new());
+        let ending =
+            session.stream(&plan.points, &identity_of("suspended-8"), &mut feed, &AtomicBool::new(false));
+        assert_eq!(ending.unwrap(), Ending::Completed, "run {run}");
+        assert_eq!(feed.2 - feed.1.unwrap(), 0, "run {run}: points refused");
+        assert_eq!(feed.3, [State::Disabled, State::Enabled, State::Disabled], "run {run}");
+        assert!(feed.0.played_ms > 1800 && feed.0.waited_ms < 200, "run {run}: {:?}", feed.0);
+    }
+    drop(session);
+    drop(b.thread.join());
+}
+
+/// A line slower than the points (38 400 baud, 3 840 bytes a second, for
+/// 100 points a second of about 57 bytes): `cdpr stream` refuses such a
+/// plan before anything is sent; a session made to stream it anyway
+/// completes, but the board plays slower than asked, waiting for points,
+/// and the report says how long. The complete stream at the line's rate
+/// above waits at most a moment.
+#[test]
+fn a_stream_the_line_cannot_carry_is_refused_and_its_waits_are_counted() {
+    let dir = common::scratch("stream-slow-line");
+    let b = board(Trouble::None);
+    let mut a = args(&dir, &b.address);
+    a.baud = 38_400;
+    let e = stream::plan(&a).unwrap_err();
+    assert!(e.bad_input && e.message.contains("more than 75 % of the 3840 bytes a second"), "{e:?}");
+    let plan = cdpr::stream::plan::Plan::from_waypoints(&waypoints(&dir), 100.0).unwrap();
+    let link = cdpr::stream::transport::tcp(&b.address, Duration::from_secs(2)).unwrap();
+    let mut session = Session::new(link, Options { baud: 38_400, ..Options::DEFAULT });
+    struct Feed(stream::FeedWait);
+    impl cdpr::stream::session::Observer for Feed {
+        fn telemetry(&mut self, _: f64, t: &Telemetry, p: cdpr::stream::session::Progress) {
+            self.0.sample(t, p.end_ms);
+        }
+    }
+    let mut feed = Feed(stream::FeedWait::default());
+    let ending =
+        session.stream(&plan.points, &identity_of("suspended-8"), &mut feed, &AtomicBool::new(false));
+    assert_eq!(ending.unwrap(), Ending::Completed);
+    let f = feed.0;
+    // 2 s of points at two thirds of the rate they need: the board waits
+    // about half as long again as it plays.
+    println!("waited {} ms while playing {} ms", f.waited_ms, f.played_ms);
+    assert!(f.played_ms > 1500 && f.waited_ms > 400, "{f:?}");
     drop(session);
     drop(b.thread.join());
 }
@@ -409,6 +524,31 @@ fn bad_input_is_one_line_and_nothing_is_sent() {
     .unwrap();
     let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
     assert!(e.message.contains("line 3") && e.message.contains("jump"), "{e}");
+    // Rows between the board's milliseconds (a 400 Hz table).
+    std::fs::write(
+        &poses,
+        "time,x,y,z,rx,ry,rz
+0.0,0,0,1.8,0,0,0
+0.0025,0,0,1.8,0,0,0
+0.005,0,0,1.8,0,0,0
+",
+    )
+    .unwrap();
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(
+        e.message.contains("line 3") && e.message.contains("0.0025 s after the first row is not a whole"),
+        "{e}"
+    );
+    // Points denser than the line carries: 1 ms apart.
+    let rows: String = (0..2000).map(|k| format!("{},0,0,1.8,0,0,0\n", k as f64 / 1000.0)).collect();
+    std::fs::write(&poses, format!("time,x,y,z,rx,ry,rz\n{rows}")).unwrap();
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(
+        e.message.contains("poses.csv, line") && e.message.contains("more than 75 % of the 46080 bytes"),
+        "{e}"
+    );
     // Waypoints too far apart for the board's u32 ms clock, and too many
     // samples (both used to abort the tool, sizing the samples first).
     let waypoints = dir.join("far.csv");

@@ -18,7 +18,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use cdpr_control::link::SetpointRange;
-use cdpr_control::protocol::{Identity, Telemetry};
+use cdpr_control::protocol::{Identity, State, Telemetry};
 use clap::Args;
 
 use crate::CliError;
@@ -37,7 +37,7 @@ pub struct StreamArgs {
     /// Waypoints (`time`, then the pose) along the time law, sampled at `--rate`.
     #[arg(long)]
     pub waypoints: Option<PathBuf>,
-    /// Points per second for `--waypoints`, Hz (4 to 1000).
+    /// Points per second for `--waypoints`, Hz (4 to 1000, and what the link carries: about 600 at 460 800 baud).
     #[arg(long, default_value_t = 100.0)]
     pub rate: f64,
     /// Serial port of the board (e.g. /dev/ttyUSB0).
@@ -191,11 +191,19 @@ struct Watch<'a> {
     shown: Option<Instant>,
     samples: usize,
     tensions: (f32, f32),
+    feed: FeedWait,
+    /// [`points_refused`] at the first sample and at the last, and the
+    /// last rejection.
+    refused: Option<(u32, u32, &'static str)>,
 }
 
 impl Observer for Watch<'_> {
     fn telemetry(&mut self, host_time: f64, t: &Telemetry, progress: Progress) {
         self.samples += 1;
+        self.feed.sample(t, progress.end_ms);
+        let now = points_refused(t);
+        let first = self.refused.map_or(now, |r| r.0);
+        self.refused = Some((first, now, t.counters.last_rejection.name()));
         if let Some(csv) = &mut self.csv {
             csv.write(host_time, t);
         }
@@ -247,6 +255,43 @@ pub fn status_line(t: &Telemetry, p: Progress, lo: f32, hi: f32) -> String {
     )
 }
 
+/// How long the board waited for points while it played the stream: the
+/// control cycles of the Enabled board beyond the play time they advanced
+/// (each cycle the buffer had run dry, a feed hold, the play clock stood
+/// still), until the play time reaches the last point. Zero when the link
+/// and the host keep up: the board then plays one millisecond a cycle.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FeedWait {
+    /// The last Enabled sample's cycle and play time (ms).
+    last: Option<(u32, u32)>,
+    /// Cycles waited, ms.
+    pub waited_ms: u64,
+    /// Play time those samples covered, ms.
+    pub played_ms: u64,
+}
+
+impl FeedWait {
+    /// Takes a telemetry sample of a stream whose last point is at
+    /// `end_ms`.
+    pub fn sample(&mut self, t: &Telemetry, end_ms: u32) {
+        if t.state != State::Enabled {
+            self.last = None;
+            return;
+        }
+        let now = (t.cycle, t.setpoint_seq);
+        if let Some((cycle, played)) = self.last {
+            // An interval that reaches the last point ends in the stop the
+            // play clock makes there, not a wait: left out.
+            if now.1 < end_ms && now.0 > cycle && now.1 >= played {
+                let (cycles, advanced) = (now.0 - cycle, now.1 - played);
+                self.waited_ms += u64::from(cycles.saturating_sub(advanced));
+                self.played_ms += u64::from(advanced);
+            }
+        }
+        self.last = Some(now);
+    }
+}
+
 /// What a finished stream reports.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Report {
@@ -258,6 +303,20 @@ pub struct Report {
     pub points: usize,
     /// Smallest and largest tension the board solved, N.
     pub tensions: (f32, f32),
+    /// How long the board waited for points.
+    pub feed: FeedWait,
+    /// Points the board refused during the stream (late or out of order,
+    /// its buffer full, out of range, a jump: `points_refused`), and the
+    /// last rejection's name. The board plays on without them.
+    pub refused: (u32, &'static str),
+}
+
+/// The points a board has refused so far (the counters run on across
+/// sessions: a stream's are the difference between its last and first
+/// samples).
+pub fn points_refused(t: &Telemetry) -> u32 {
+    let c = &t.counters;
+    c.rejected_order.wrapping_add(c.rejected_range).wrapping_add(c.rejected_jump)
 }
 
 impl std::fmt::Display for Report {
@@ -273,7 +332,25 @@ impl std::fmt::Display for Report {
             self.samples,
             self.tensions.0,
             self.tensions.1
-        )
+        )?;
+        if self.refused.0 > 0 {
+            write!(
+                f,
+                "; the board refused {} points (last rejection: {}): the motion was played without them",
+                self.refused.0, self.refused.1
+            )?;
+        }
+        let feed = &self.feed;
+        if feed.waited_ms > 0 {
+            write!(
+                f,
+                "; the board waited {:.3} s for points while it played {:.3} s of the trajectory (the link or \
+                 the host fell behind: the motion was slower than asked, with stops)",
+                feed.waited_ms as f64 / 1000.0,
+                feed.played_ms as f64 / 1000.0
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -292,6 +369,7 @@ pub fn plan(args: &StreamArgs) -> Result<(Plan, Identity), CliError> {
         (None, None) => return Err(CliError::input("give --poses or --waypoints")),
     };
     plan.check(path, &SetpointRange::for_robot(&robot))?;
+    plan.check_link(path, args.baud)?;
     Ok((plan, identity))
 }
 
@@ -327,13 +405,27 @@ pub fn run(args: &StreamArgs, status: &mut dyn Write, interrupt: &AtomicBool) ->
     };
     let options = Options { lead_ms: args.lead, feedback, baud: args.baud, ..Options::DEFAULT };
     let mut session = Session::new(link, options);
-    let mut watch =
-        Watch { csv, status, shown: None, samples: 0, tensions: (f32::INFINITY, f32::NEG_INFINITY) };
+    let mut watch = Watch {
+        csv,
+        status,
+        shown: None,
+        samples: 0,
+        tensions: (f32::INFINITY, f32::NEG_INFINITY),
+        feed: FeedWait::default(),
+        refused: None,
+    };
     let result = session.stream(&plan.points, &identity, &mut watch, interrupt);
     let _ = writeln!(watch.status);
     if let Some(csv) = watch.csv.take() {
         csv.finish()?;
     }
     let ending = result.map_err(|e: SessionError| CliError::other(e.to_string()))?;
-    Ok(Report { ending, samples: watch.samples, points: plan.points.len(), tensions: watch.tensions })
+    Ok(Report {
+        ending,
+        samples: watch.samples,
+        points: plan.points.len(),
+        tensions: watch.tensions,
+        feed: watch.feed,
+        refused: watch.refused.map_or((0, "none"), |(first, last, why)| (last.wrapping_sub(first), why)),
+    })
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use cdpr_control::link::{JumpLimits, SetpointRange};
 use cdpr_control::point_buffer::MAX_SEGMENT_MS;
-use cdpr_control::protocol::{Setpoint, TrajectoryPoint};
+use cdpr_control::protocol::{encode, HostMessage, Setpoint, TrajectoryPoint, MAX_FRAME};
 use tension_core::RobotKind;
 
 use crate::table::{read_poses, TimeColumn};
@@ -53,9 +53,20 @@ impl Plan {
         let times = w.sample_times(rate).map_err(|e| CliError::at(path, None, None, &e.message))?;
         let mut points = Vec::with_capacity(times.len());
         for t in times {
-            let s = w.sample(t);
+            // The board's times are whole milliseconds: each point is the
+            // trajectory at its own millisecond. (Sampled at `t` and
+            // labelled with `t` rounded, a rate whose period is not a whole
+            // number of ms, 400 Hz, put each pose up to 0.5 ms off its
+            // time: the board's cubic through poses and velocities that
+            // disagree by that much swings its acceleration by hundreds of
+            // m/s^2, and the setpoints' d'Alembert wrench made them
+            // infeasible.)
+            let time_ms = ((t - t0) * 1000.0).round();
+            // (Within the waypoints: a last waypoint off the ms grid rounds
+            // up past it, where the trajectory is at rest anyway.)
+            let s = w.sample((t0 + time_ms / 1000.0).min(w.end()));
             points.push(TrajectoryPoint {
-                time_ms: ((t - t0) * 1000.0).round() as u32,
+                time_ms: time_ms as u32,
                 pose: to_f32(&s.pose),
                 velocity: to_f32(&s.velocity),
             });
@@ -66,7 +77,8 @@ impl Plan {
     }
 
     /// A timed pose table (`time`, then the pose columns) as points, one
-    /// per row: times rounded to the ms (from the first row's), the
+    /// per row: times in whole ms from the first row's (within 1 us; a
+    /// row between two ms is refused), the
     /// velocity the central difference of the neighbours (zero at the first
     /// and last rows: the motion starts and ends at rest).
     pub fn from_pose_table(path: &Path) -> Result<Self, CliError> {
@@ -88,6 +100,23 @@ impl Plan {
                 core::array::from_fn(|k| ((b[k] - a[k]) / dt) as f32)
             };
             let time_ms = (times[i] * 1000.0).round();
+            // The board's points are at whole milliseconds. A row between
+            // them cannot be sent as it is: rounded, its pose would lie off
+            // its time by up to 0.5 ms, and the board's cubic through poses
+            // and velocities that disagree so swings its acceleration by
+            // hundreds of m/s^2 (a 2.5 ms table at 1 m/s: about 500 m/s^2).
+            if (times[i] * 1000.0 - time_ms).abs() > 1e-3 {
+                return Err(CliError::at(
+                    path,
+                    Some(row.line),
+                    None,
+                    &format!(
+                        "time {} s after the first row is not a whole millisecond (the board's points are): \
+                         resample the table at whole ms, or give waypoints (--waypoints, --rate)",
+                        Readable(times[i])
+                    ),
+                ));
+            }
             if time_ms > f64::from(u32::MAX) {
                 return Err(CliError::at(
                     path,
@@ -145,6 +174,55 @@ impl Plan {
             }
             if !limits.follows(&q.pose, &q.velocity, &p.pose, &p.velocity, dt as f32 * 1e-3) {
                 return Err(at(i, "the pose does not follow from the previous one by their velocities (the board's jump check: 50 mm, 0.1 rad)"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The share of the serial line the points may take over any second of
+/// play: the rest is for the commands, and for a USB bridge's bursts (the
+/// FTDI latency timer defaults to 16 ms).
+pub const LINK_SHARE: f64 = 0.75;
+
+impl Plan {
+    /// Checks that the points fit the serial link at `baud` (8N1: ten bits a
+    /// byte): their frames over any second of play time take at most
+    /// [`LINK_SHARE`] of what the line carries. A denser stream than the
+    /// line carries would not fail on the board: its buffer would run dry
+    /// and it would play the trajectory slower than asked, stopping and
+    /// starting (a feed hold each time), with no error.
+    pub fn check_link(&self, path: &Path, baud: u32) -> Result<(), CliError> {
+        let capacity = f64::from(baud) / 10.0;
+        let allowed = LINK_SHARE * capacity;
+        let mut frame = [0u8; MAX_FRAME];
+        let bytes: Vec<usize> = self
+            .points
+            .iter()
+            .map(|p| encode(&HostMessage::Point(*p), &mut frame).unwrap_or(MAX_FRAME))
+            .collect();
+        let largest = bytes.iter().copied().max().unwrap_or(0);
+        // Bytes of the points in the window of play time (t - 1 s, t].
+        let (mut first, mut window) = (0, 0usize);
+        for (i, p) in self.points.iter().enumerate() {
+            window += bytes[i];
+            while self.points[first].time_ms + 1000 <= p.time_ms {
+                window -= bytes[first];
+                first += 1;
+            }
+            if window as f64 > allowed {
+                let (from, to) = (self.points[first].time_ms, p.time_ms);
+                let most = (allowed / largest as f64).floor();
+                let what = format!(
+                    "the points from {:.3} s to {:.3} s take {window} bytes (up to {largest} a point), more than \
+                     {:.0} % of the {} bytes a second {baud} baud carries: at most about {most} points a \
+                     second fit (lower --rate, or thin the table)",
+                    f64::from(from) / 1000.0,
+                    f64::from(to) / 1000.0,
+                    LINK_SHARE * 100.0,
+                    Readable(capacity),
+                );
+                return Err(CliError::at(path, self.lines[i], None, &what));
             }
         }
         Ok(())

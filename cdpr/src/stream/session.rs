@@ -8,7 +8,7 @@ use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use cdpr_control::point_buffer::START_DELAY_CYCLES;
+use cdpr_control::point_buffer::{DEPTH, START_DELAY_CYCLES};
 use cdpr_control::protocol::{
     encode, DeviceMessage, FrameDecoder, HostMessage, Identity, Reason, State, Telemetry, TrajectoryPoint,
     MAX_FRAME,
@@ -357,17 +357,32 @@ impl Session {
                 self.disable(observer, progress)?;
                 return Ok(Ending::Interrupted);
             }
-            while progress.sent < total && points[progress.sent].time_ms <= played + self.options.lead_ms {
+            // Points `lead_ms` ahead of the play time, but never more than
+            // the board's buffer holds: it keeps the point that starts the
+            // segment it plays, and at most `DEPTH - 1` after it. The play
+            // time comes from telemetry, so it lags the board's: the count
+            // of points ahead is an upper bound (at 100 Hz the lead bounds
+            // first; from 400 Hz, 80 ms of points are more than the buffer).
+            while progress.sent < total
+                && points[progress.sent].time_ms <= played + self.options.lead_ms
+                && progress.sent - points.partition_point(|p| p.time_ms <= played).min(progress.sent)
+                    < DEPTH - 1
+            {
                 self.send(&HostMessage::Point(points[progress.sent]))?;
                 progress.sent += 1;
             }
             self.poll(observer, progress)?;
             let Some(t) = self.last else { continue };
             // The board's play time is its setpoint number once the stream
-            // plays (and stays so when the buffer has played out).
+            // plays (and stays so when the buffer has played out). Until it
+            // plays this stream's points (the start delay), the board still
+            // reports the last stream's play time: never beyond the newest
+            // point sent, which tells the two apart (taken for this one's, a
+            // last stream's end sent every point at once into the buffer).
             let playing = t.buffer_fill > 0 || t.buffer_lead_ms > 0;
             started |= playing;
-            if started && (t0..=end_ms).contains(&t.setpoint_seq) {
+            let newest = progress.sent.checked_sub(1).map_or(t0, |i| points[i].time_ms);
+            if started && (t0..=newest).contains(&t.setpoint_seq) {
                 played = played.max(t.setpoint_seq);
             }
             progress.played_ms = played;
