@@ -581,3 +581,22 @@ fn bad_input_is_one_line_and_nothing_is_sent() {
     drop(TcpStream::connect(&b.address));
     drop(b.thread.join());
 }
+
+/// The link check's window near the end of the board's u32 ms clock (49.7
+/// days): no overflow, and two points fit.
+#[test]
+fn the_link_check_holds_at_the_end_of_the_clock() {
+    use cdpr_control::protocol::TrajectoryPoint;
+    let point =
+        |time_ms| TrajectoryPoint { time_ms, pose: [0.0, 0.0, 1.8, 0.0, 0.0, 0.0], velocity: [0.0; 6] };
+    let plan = cdpr::stream::plan::Plan {
+        points: vec![point(u32::MAX - 500), point(u32::MAX - 250), point(u32::MAX)],
+        lines: vec![Some(2), Some(3), Some(4)],
+    };
+    plan.check_link(Path::new("late.csv"), 460_800).unwrap();
+    let e = plan.check_link(Path::new("late.csv"), 300).unwrap_err();
+    assert!(
+        e.message.contains("late.csv, line 2") && e.message.contains("30 bytes a second 300 baud"),
+        "{e:?}"
+    );
+}

@@ -15,6 +15,11 @@ use crate::trajectory::Waypoints;
 use crate::CliError;
 use robot_file::Readable;
 
+/// The share of the serial line the points may take over any second of
+/// play: the rest is for the commands, and for a USB bridge's bursts (the
+/// FTDI latency timer defaults to 16 ms).
+pub const LINK_SHARE: f64 = 0.75;
+
 /// The points to stream, with where each came from (for messages).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
@@ -180,11 +185,6 @@ impl Plan {
     }
 }
 
-/// The share of the serial line the points may take over any second of
-/// play: the rest is for the commands, and for a USB bridge's bursts (the
-/// FTDI latency timer defaults to 16 ms).
-pub const LINK_SHARE: f64 = 0.75;
-
 impl Plan {
     /// Checks that the points fit the serial link at `baud` (8N1: ten bits a
     /// byte): their frames over any second of play time take at most
@@ -206,7 +206,7 @@ impl Plan {
         let (mut first, mut window) = (0, 0usize);
         for (i, p) in self.points.iter().enumerate() {
             window += bytes[i];
-            while self.points[first].time_ms + 1000 <= p.time_ms {
+            while u64::from(self.points[first].time_ms) + 1000 <= u64::from(p.time_ms) {
                 window -= bytes[first];
                 first += 1;
             }
