@@ -364,7 +364,7 @@ impl Session {
             // of points ahead is an upper bound (at 100 Hz the lead bounds
             // first; from 400 Hz, 80 ms of points are more than the buffer).
             while progress.sent < total
-                && points[progress.sent].time_ms <= played + self.options.lead_ms
+                && points[progress.sent].time_ms <= played.saturating_add(self.options.lead_ms)
                 && progress.sent - points.partition_point(|p| p.time_ms <= played).min(progress.sent)
                     < DEPTH - 1
             {
