@@ -246,8 +246,9 @@ fn a_stream_homes_enables_plays_every_point_and_disables() {
     // The board played at the pace asked: it waited for points at most
     // for a moment (a host descheduled past its lead, as above), and
     // refused none.
-    assert!(report.feed.played_ms > 1800 && report.feed.waited_ms < 200, "{:?}", report.feed);
-    assert_eq!(report.refused.0, 0, "{report}");
+    let p = report.playback;
+    assert!(p.played_ms > 1800 && p.waited_ms < 200, "{p:?}");
+    assert_eq!(p.refused, 0, "{report}");
 }
 
 /// What a stream that did not play as planned reports, after "completed":
@@ -259,17 +260,16 @@ fn the_report_says_what_did_not_play_as_planned() {
         samples: 600,
         points: 601,
         tensions: (11.6, 23.2),
-        feed: stream::FeedWait::default(),
-        refused: (0, "none"),
+        playback: stream::Playback::default(),
     };
     assert_eq!(
         clean.to_string(),
         "completed: 601 points sent, 600 telemetry samples, tensions 11.60..23.20 N"
     );
-    let mut feed = stream::FeedWait::default();
-    feed.waited_ms = 924;
-    feed.played_ms = 1906;
-    let late = stream::Report { refused: (144, "buffer-full"), feed, ..clean };
+    let mut playback = stream::Playback::default();
+    (playback.waited_ms, playback.played_ms) = (924, 1906);
+    (playback.refused, playback.last_rejection) = (144, cdpr_control::protocol::Rejection::BufferFull);
+    let late = stream::Report { playback, ..clean };
     let text = late.to_string();
     assert!(text.starts_with("completed: 601 points sent"), "{text}");
     assert!(text.contains("; the board refused 144 points (last rejection: buffer-full)"), "{text}");
@@ -355,6 +355,23 @@ fn a_board_that_stops_answering_is_reported_within_the_silence_limit() {
     drop(b.thread.join());
 }
 
+/// A session's observer for the tests: how the board played the stream
+/// (`cdpr stream`'s own account of it) and the states it went through.
+#[derive(Default)]
+struct Watched {
+    playback: stream::Playback,
+    states: Vec<State>,
+}
+
+impl cdpr::stream::session::Observer for Watched {
+    fn telemetry(&mut self, _: f64, t: &Telemetry, p: cdpr::stream::session::Progress) {
+        self.playback.sample(t, p.end_ms);
+        if self.states.last() != Some(&t.state) {
+            self.states.push(t.state);
+        }
+    }
+}
+
 /// Streams in a row on one board, as an operator runs `cdpr stream` again:
 /// each later one starts while the board still reports the last one's
 /// play time (2000 ms) until it plays the new points. Taken for the new
@@ -374,30 +391,18 @@ fn streams_in_a_row_at_any_rate_lose_no_point() {
     let b = board(Trouble::None);
     let link = cdpr::stream::transport::tcp(&b.address, Duration::from_secs(2)).unwrap();
     let mut session = Session::new(link, Options::DEFAULT);
-    // The waits, and the points refused (out of order, late or the buffer
-    // full; the counters run on from session to session) at the first and
-    // the last sample.
-    struct Feed(stream::FeedWait, Option<u32>, u32, Vec<State>);
-    impl cdpr::stream::session::Observer for Feed {
-        fn telemetry(&mut self, _: f64, t: &Telemetry, p: cdpr::stream::session::Progress) {
-            self.0.sample(t, p.end_ms);
-            if self.3.last() != Some(&t.state) {
-                self.3.push(t.state);
-            }
-            let refused = stream::points_refused(t);
-            self.1.get_or_insert(refused);
-            self.2 = refused;
-        }
-    }
     for (run, rate) in [500.0, 250.0, 400.0].into_iter().enumerate() {
         let plan = cdpr::stream::plan::Plan::from_waypoints(&waypoints(&dir), rate).unwrap();
-        let mut feed = Feed(stream::FeedWait::default(), None, 0, Vec::new());
+        let mut seen = Watched::default();
         let ending =
-            session.stream(&plan.points, &identity_of("suspended-8"), &mut feed, &AtomicBool::new(false));
+            session.stream(&plan.points, &identity_of("suspended-8"), &mut seen, &AtomicBool::new(false));
         assert_eq!(ending.unwrap(), Ending::Completed, "run {run}");
-        assert_eq!(feed.2 - feed.1.unwrap(), 0, "run {run}: points refused");
-        assert_eq!(feed.3, [State::Disabled, State::Enabled, State::Disabled], "run {run}");
-        assert!(feed.0.played_ms > 1800 && feed.0.waited_ms < 200, "run {run}: {:?}", feed.0);
+        // The counters run on from session to session: the points refused
+        // (late, out of order, the buffer full) are this stream's.
+        let p = seen.playback;
+        assert_eq!(p.refused, 0, "run {run}: points refused ({})", p.last_rejection.name());
+        assert_eq!(seen.states, [State::Disabled, State::Enabled, State::Disabled], "run {run}");
+        assert!(p.played_ms > 1800 && p.waited_ms < 200, "run {run}: {p:?}");
     }
     drop(session);
     drop(b.thread.join());
@@ -420,17 +425,11 @@ fn a_stream_the_line_cannot_carry_is_refused_and_its_waits_are_counted() {
     let plan = cdpr::stream::plan::Plan::from_waypoints(&waypoints(&dir), 100.0).unwrap();
     let link = cdpr::stream::transport::tcp(&b.address, Duration::from_secs(2)).unwrap();
     let mut session = Session::new(link, Options { baud: 38_400, ..Options::DEFAULT });
-    struct Feed(stream::FeedWait);
-    impl cdpr::stream::session::Observer for Feed {
-        fn telemetry(&mut self, _: f64, t: &Telemetry, p: cdpr::stream::session::Progress) {
-            self.0.sample(t, p.end_ms);
-        }
-    }
-    let mut feed = Feed(stream::FeedWait::default());
+    let mut seen = Watched::default();
     let ending =
-        session.stream(&plan.points, &identity_of("suspended-8"), &mut feed, &AtomicBool::new(false));
+        session.stream(&plan.points, &identity_of("suspended-8"), &mut seen, &AtomicBool::new(false));
     assert_eq!(ending.unwrap(), Ending::Completed);
-    let f = feed.0;
+    let f = seen.playback;
     // 2 s of points at two thirds of the rate they need: the board waits
     // about half as long again as it plays.
     println!("waited {} ms while playing {} ms", f.waited_ms, f.played_ms);

@@ -18,7 +18,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use cdpr_control::link::SetpointRange;
-use cdpr_control::protocol::{Identity, State, Telemetry};
+use cdpr_control::protocol::{Identity, Rejection, State, Telemetry};
 use clap::Args;
 
 use crate::CliError;
@@ -191,19 +191,13 @@ struct Watch<'a> {
     shown: Option<Instant>,
     samples: usize,
     tensions: (f32, f32),
-    feed: FeedWait,
-    /// [`points_refused`] at the first sample and at the last, and the
-    /// last rejection.
-    refused: Option<(u32, u32, &'static str)>,
+    playback: Playback,
 }
 
 impl Observer for Watch<'_> {
     fn telemetry(&mut self, host_time: f64, t: &Telemetry, progress: Progress) {
         self.samples += 1;
-        self.feed.sample(t, progress.end_ms);
-        let now = points_refused(t);
-        let first = self.refused.map_or(now, |r| r.0);
-        self.refused = Some((first, now, t.counters.last_rejection.name()));
+        self.playback.sample(t, progress.end_ms);
         if let Some(csv) = &mut self.csv {
             csv.write(host_time, t);
         }
@@ -255,25 +249,41 @@ pub fn status_line(t: &Telemetry, p: Progress, lo: f32, hi: f32) -> String {
     )
 }
 
-/// How long the board waited for points while it played the stream: the
-/// control cycles of the Enabled board beyond the play time they advanced
-/// (each cycle the buffer had run dry, a feed hold, the play clock stood
-/// still), until the play time reaches the last point. Zero when the link
-/// and the host keep up: the board then plays one millisecond a cycle.
+/// How the board played a stream against its plan, from its telemetry:
+/// * how long it waited for points: the control cycles of the Enabled
+///   board beyond the play time they advanced (each cycle the buffer had
+///   run dry, a feed hold, the play clock stood still), until the play
+///   time reaches the last point. Zero when the link and the host keep
+///   up: the board then plays one millisecond a cycle;
+/// * the points it refused (late or out of order, its buffer full, out of
+///   range, a jump: its counters `rejected_order`, `rejected_range` and
+///   `rejected_jump`, which run on across sessions: a stream's are the
+///   difference between its last and first samples), and the last
+///   rejection. The board plays on without them.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct FeedWait {
+pub struct Playback {
     /// The last Enabled sample's cycle and play time (ms).
     last: Option<(u32, u32)>,
     /// Cycles waited, ms.
     pub waited_ms: u64,
     /// Play time those samples covered, ms.
     pub played_ms: u64,
+    /// The refusal counters' sum at the first sample.
+    refusals_at_start: Option<u32>,
+    /// Points the board refused during the stream.
+    pub refused: u32,
+    /// The last rejection the board reported.
+    pub last_rejection: Rejection,
 }
 
-impl FeedWait {
+impl Playback {
     /// Takes a telemetry sample of a stream whose last point is at
     /// `end_ms`.
     pub fn sample(&mut self, t: &Telemetry, end_ms: u32) {
+        let c = &t.counters;
+        let refusals = c.rejected_order.wrapping_add(c.rejected_range).wrapping_add(c.rejected_jump);
+        self.refused = refusals.wrapping_sub(*self.refusals_at_start.get_or_insert(refusals));
+        self.last_rejection = c.last_rejection;
         if t.state != State::Enabled {
             self.last = None;
             return;
@@ -303,20 +313,9 @@ pub struct Report {
     pub points: usize,
     /// Smallest and largest tension the board solved, N.
     pub tensions: (f32, f32),
-    /// How long the board waited for points.
-    pub feed: FeedWait,
-    /// Points the board refused during the stream (late or out of order,
-    /// its buffer full, out of range, a jump: `points_refused`), and the
-    /// last rejection's name. The board plays on without them.
-    pub refused: (u32, &'static str),
-}
-
-/// The points a board has refused so far (the counters run on across
-/// sessions: a stream's are the difference between its last and first
-/// samples).
-pub fn points_refused(t: &Telemetry) -> u32 {
-    let c = &t.counters;
-    c.rejected_order.wrapping_add(c.rejected_range).wrapping_add(c.rejected_jump)
+    /// How the board played it: its waits for points, the points it
+    /// refused.
+    pub playback: Playback,
 }
 
 impl std::fmt::Display for Report {
@@ -333,21 +332,22 @@ impl std::fmt::Display for Report {
             self.tensions.0,
             self.tensions.1
         )?;
-        if self.refused.0 > 0 {
+        let playback = &self.playback;
+        if playback.refused > 0 {
             write!(
                 f,
                 "; the board refused {} points (last rejection: {}): the motion was played without them",
-                self.refused.0, self.refused.1
+                playback.refused,
+                playback.last_rejection.name()
             )?;
         }
-        let feed = &self.feed;
-        if feed.waited_ms > 0 {
+        if playback.waited_ms > 0 {
             write!(
                 f,
                 "; the board waited {:.3} s for points while it played {:.3} s of the trajectory (the link or \
                  the host fell behind: the motion was slower than asked, with stops)",
-                feed.waited_ms as f64 / 1000.0,
-                feed.played_ms as f64 / 1000.0
+                playback.waited_ms as f64 / 1000.0,
+                playback.played_ms as f64 / 1000.0
             )?;
         }
         Ok(())
@@ -411,8 +411,7 @@ pub fn run(args: &StreamArgs, status: &mut dyn Write, interrupt: &AtomicBool) ->
         shown: None,
         samples: 0,
         tensions: (f32::INFINITY, f32::NEG_INFINITY),
-        feed: FeedWait::default(),
-        refused: None,
+        playback: Playback::default(),
     };
     let result = session.stream(&plan.points, &identity, &mut watch, interrupt);
     let _ = writeln!(watch.status);
@@ -425,7 +424,6 @@ pub fn run(args: &StreamArgs, status: &mut dyn Write, interrupt: &AtomicBool) ->
         samples: watch.samples,
         points: plan.points.len(),
         tensions: watch.tensions,
-        feed: watch.feed,
-        refused: watch.refused.map_or((0, "none"), |(first, last, why)| (last.wrapping_sub(first), why)),
+        playback: watch.playback,
     })
 }

@@ -133,7 +133,9 @@ pub struct Progress {
     pub sent: usize,
     /// Points in the plan.
     pub total: usize,
-    /// The board's play time, ms (its `setpoint_seq` while it plays).
+    /// The board's play time, ms: its `setpoint_seq` once it plays this
+    /// stream, as the stream's flow control takes it (as of the poll
+    /// before the sample).
     pub played_ms: u32,
     /// The plan's last time, ms.
     pub end_ms: u32,
@@ -212,10 +214,6 @@ impl Session {
                 Some(Ok(DeviceMessage::Telemetry(t))) => {
                     self.last_heard = Instant::now();
                     self.unread = (0, 0);
-                    let mut progress = progress;
-                    if t.buffer_fill > 0 || t.buffer_lead_ms > 0 {
-                        progress.played_ms = t.setpoint_seq;
-                    }
                     observer.telemetry(self.start.elapsed().as_secs_f64(), &t, progress);
                     self.last = Some(t);
                     got += 1;
