@@ -274,6 +274,63 @@ fn the_report_says_what_did_not_play_as_planned() {
     assert!(text.starts_with("completed: 601 points sent"), "{text}");
     assert!(text.contains("; the board refused 144 points (last rejection: buffer-full)"), "{text}");
     assert!(text.contains("; the board waited 0.924 s for points while it played 1.906 s"), "{text}");
+    let mut playback = stream::Playback::default();
+    playback.overruns = 3;
+    let text = stream::Report { playback, ..clean }.to_string();
+    assert!(text.contains("; the board missed 3 control deadlines"), "{text}");
+}
+
+/// An Enabled board's sample at `cycle`, with `overruns` deadlines missed
+/// since it started.
+fn sample(cycle: u32, overruns: u32) -> Telemetry {
+    Telemetry {
+        cycle,
+        setpoint_seq: cycle,
+        state: State::Enabled,
+        reason: cdpr_control::protocol::Reason::None,
+        hold_reason: cdpr_control::protocol::Reason::None,
+        solved: true,
+        tensions: [15.0; CABLES],
+        torques: [0.08; CABLES],
+        brakes: false,
+        step_cost: 9_000,
+        counters: cdpr_control::protocol::Counters { accepted: cycle, overruns, ..Default::default() },
+        method: 0,
+        estimate: [0.0; 6],
+        residual: 0.0,
+        homed: true,
+        feedback: 0,
+        unreadable_drive: None,
+        tension_limited: 0,
+        feedback_scale: 100,
+        buffer_fill: 8,
+        buffer_lead_ms: 80,
+        drive_fault: None,
+    }
+}
+
+/// The deadlines the board missed during a stream, from its counter (which
+/// runs on from stream to stream, and wraps): in the report and in the
+/// telemetry CSV's last column.
+#[test]
+fn a_stream_counts_the_deadlines_the_board_missed() {
+    let mut clean = stream::Playback::default();
+    for cycle in 100..200 {
+        clean.sample(&sample(cycle, 7), 1_000);
+    }
+    assert_eq!(clean.overruns, 0);
+    let mut late = stream::Playback::default();
+    for (cycle, overruns) in [(100, u32::MAX - 1), (101, u32::MAX), (102, 0), (103, 0), (104, 1)] {
+        late.sample(&sample(cycle, overruns), 1_000);
+    }
+    assert_eq!(late.overruns, 3, "{late:?}");
+    let header = stream::telemetry_header();
+    let row = stream::telemetry_row(0.5, &sample(104, 1));
+    assert_eq!(
+        (header.last().map(String::as_str), row.last().map(String::as_str)),
+        (Some("overruns"), Some("1"))
+    );
+    assert_eq!(header.len(), row.len());
 }
 
 #[test]

@@ -20,8 +20,9 @@
 //!   the CiA 402 drives on CAN1 and CAN2 through `can`, or with the
 //!   `direct` feature PWM amplifiers and quadrature counters through
 //!   `direct`); [`serial`]:
-//!   USART1; [`stack`]: stack painting; [`robot`]: the robot's constants,
-//!   generated from its robot file;
+//!   USART1; [`stack`]: stack painting; [`state_log`]: the product's log
+//!   of state changes, written by the idle loop; [`robot`]: the robot's
+//!   constants, generated from its robot file;
 //! * [`demo`]: the demo run (the `demo` and `inject-*` programs), whose
 //!   drives ([`loopback`]) put the CiA 402 layer, its frames looped back
 //!   to drive models in memory, in front of the board's;
@@ -45,6 +46,7 @@ pub mod periodic;
 pub mod robot;
 pub mod serial;
 pub mod stack;
+pub mod state_log;
 pub mod stress;
 
 use cdpr_control::feedback::{JointGains, TaskPid};

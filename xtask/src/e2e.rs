@@ -664,6 +664,7 @@ fn scenario(file: &Path, results: &mut Vec<Check>) -> Result<(), String> {
     );
     results.insert(3, estimates(&tracking_sent, &tracking));
 
+    results.push(deadlines(&s));
     results.push(product_stack(s.stack.load(Ordering::Relaxed)));
     results.push(interrupt_entry_exit(s.entry_exit.load(Ordering::Relaxed)));
 
@@ -1116,6 +1117,45 @@ fn stream_stops(s: &Session, before: usize) -> Check {
                 f.cycle
             )),
             (h, f) => Err(format!("expected Holding(Stale) then Fault: {h:?} / {f:?}")),
+        },
+    )
+}
+
+/// No state change costs the board a control deadline. Each change is a
+/// log line (the states, the counters, the stack's high-water mark),
+/// which the idle loop writes (`firmware::state_log`); written from the
+/// control task, each made the next release late, and a change was
+/// followed by an overrun every time (9 of 9 in this session). A change
+/// counts as followed by one when the overrun counter grew between the
+/// sample before it and the second sample after it (about 20 ms). Late
+/// wake-ups of QEMU's process on a loaded host also count as overruns
+/// (`-icount ... sleep=on`), anywhere in the session: one such
+/// coincidence is let pass.
+fn deadlines(s: &Session) -> Check {
+    let samples = s.telemetry_since(0);
+    let changes: Vec<usize> =
+        (1..samples.len()).filter(|&i| samples[i - 1].state != samples[i].state).collect();
+    let followed = changes
+        .iter()
+        .filter(|&&i| {
+            let after = samples[(i + 2).min(samples.len() - 1)].counters.overruns;
+            after != samples[i - 1].counters.overruns
+        })
+        .count();
+    let overruns = samples.last().map_or(0, |t| t.counters.overruns);
+    let shown = format!(
+        "{followed} of {} state changes followed by an overrun; {overruns} overruns in the session's {} samples",
+        changes.len(),
+        samples.len()
+    );
+    (
+        "no state change costs the board a control deadline".into(),
+        if changes.len() >= 4 && followed <= 1 {
+            Ok(shown)
+        } else if changes.len() < 4 {
+            Err(format!("{shown}: the check needs at least 4 changes"))
+        } else {
+            Err(shown)
         },
     )
 }

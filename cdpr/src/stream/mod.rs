@@ -96,6 +96,7 @@ pub fn telemetry_header() -> Vec<String> {
             "drive_fault_drive",
             "drive_fault_cause",
             "drive_fault_code",
+            "overruns",
         ]
         .iter()
         .map(|s| s.to_string()),
@@ -152,6 +153,7 @@ pub fn telemetry_row(host_time: f64, t: &Telemetry) -> Vec<String> {
         t.drive_fault.map_or(String::new(), |f| f.drive.to_string()),
         t.drive_fault.map_or(String::new(), |f| f.cause.name().to_string()),
         t.drive_fault.map_or(String::new(), |f| format!("{:#x}", f.code)),
+        c.overruns.to_string(),
     ]);
     r
 }
@@ -259,7 +261,9 @@ pub fn status_line(t: &Telemetry, p: Progress, lo: f32, hi: f32) -> String {
 ///   range, a jump: its counters `rejected_order`, `rejected_range` and
 ///   `rejected_jump`, which run on across sessions: a stream's are the
 ///   difference between its last and first samples), and the last
-///   rejection. The board plays on without them.
+///   rejection. The board plays on without them;
+/// * the control deadlines it missed (its counter `overruns`, over the
+///   stream as the refusals): five in a row fault the robot.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Playback {
     /// The last Enabled sample's cycle and play time (ms).
@@ -274,6 +278,10 @@ pub struct Playback {
     pub refused: u32,
     /// The last rejection the board reported.
     pub last_rejection: Rejection,
+    /// The overrun counter at the first sample.
+    overruns_at_start: Option<u32>,
+    /// Control deadlines the board missed during the stream.
+    pub overruns: u32,
 }
 
 impl Playback {
@@ -284,6 +292,7 @@ impl Playback {
         let refusals = c.rejected_order.wrapping_add(c.rejected_range).wrapping_add(c.rejected_jump);
         self.refused = refusals.wrapping_sub(*self.refusals_at_start.get_or_insert(refusals));
         self.last_rejection = c.last_rejection;
+        self.overruns = c.overruns.wrapping_sub(*self.overruns_at_start.get_or_insert(c.overruns));
         if t.state != State::Enabled {
             self.last = None;
             return;
@@ -339,6 +348,14 @@ impl std::fmt::Display for Report {
                 "; the board refused {} points (last rejection: {}): the motion was played without them",
                 playback.refused,
                 playback.last_rejection.name()
+            )?;
+        }
+        if playback.overruns > 0 {
+            write!(
+                f,
+                "; the board missed {} control deadlines (its step or something beside it took longer than \
+                 its period: five in a row fault it)",
+                playback.overruns
             )?;
         }
         if playback.waited_ms > 0 {

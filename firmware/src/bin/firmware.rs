@@ -12,7 +12,8 @@
 //! and queues telemetry (and, after an `Identify`, the robot's identity
 //! `firmware::robot::IDENTITY`), which a low-priority task writes to the line.
 //! TIM2 times every step; a late cycle counts as an overrun, which the
-//! state machine sees.
+//! state machine sees. The idle loop logs the state machine's changes
+//! (`firmware::state_log`).
 
 #![no_std]
 #![no_main]
@@ -23,7 +24,8 @@ mod app {
     use cdpr_protocol::{encode, DeviceMessage, LineFrame, MAX_FRAME};
     use firmware::periodic::Releases;
     use firmware::serial::{self, FrameQueue, Receiver, Transmitter, RX_QUEUE, TX_QUEUE};
-    use firmware::{bsp, clock, drives, robot, stack, Board, CanInterrupt};
+    use firmware::state_log::{ChangeLog, ChangeQueue, Recorder};
+    use firmware::{bsp, clock, robot, Board, CanInterrupt};
     use heapless::spsc::{Producer, Queue};
 
     #[shared]
@@ -41,12 +43,17 @@ mod app {
         tx: Producer<'static, u8>,
         receiver: Receiver,
         transmitter: Transmitter,
+        /// The state changes the control task saw, for the idle loop.
+        changes: Recorder,
+        /// The idle loop's end of `changes`.
+        change_log: ChangeLog,
     }
 
     #[init(local = [
         rx_queue: Queue<LineFrame, RX_QUEUE> = Queue::new(),
         tx_queue: Queue<u8, TX_QUEUE> = Queue::new(),
         board_slot: Option<Board> = None,
+        change_queue: ChangeQueue = ChangeQueue::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let (board, rest) = Board::start_in(cx.local.board_slot, cx.device);
@@ -55,6 +62,8 @@ mod app {
         board.place_stand_in(firmware::robot::DEMO.setpoint(0).pose.into());
         let (rx_in, rx) = cx.local.rx_queue.split();
         let (tx, tx_out) = cx.local.tx_queue.split();
+        let (changes, change_log) = cx.local.change_queue.split();
+        let changes = Recorder::new(changes, board.control.supervisor().state());
         serial::init(rest.usart1, &rest.rcc);
         Board::start_watchdog(&rest.iwdg);
         if control::spawn().is_err() {
@@ -67,13 +76,22 @@ mod app {
             tx,
             receiver: Receiver::new(rx_in),
             transmitter: Transmitter::new(tx_out),
+            changes,
+            change_log: ChangeLog::new(change_log),
         };
         (Shared { can1, can2 }, local)
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
-        firmware::idle()
+    /// The state changes' log lines (`firmware::state_log`), below every
+    /// task: written in the control loop they cost it its deadline.
+    #[idle(local = [change_log])]
+    fn idle(cx: idle::Context) -> ! {
+        loop {
+            cx.local.change_log.write_pending();
+            // A change queued after the check waits for the next interrupt
+            // (the control release, at most 1 ms).
+            cortex_m::asm::wfi();
+        }
     }
 
     /// Every received byte into the queue (highest priority: a byte must
@@ -116,7 +134,7 @@ mod app {
     }
 
     /// The 1 kHz control loop.
-    #[task(priority = 2, local = [board, rx, tx])]
+    #[task(priority = 2, local = [board, rx, tx, changes])]
     async fn control(cx: control::Context) {
         let Board { drives, control, .. } = &mut **cx.local.board;
         let (rx, tx) = (cx.local.rx, cx.local.tx);
@@ -129,7 +147,6 @@ mod app {
         let mut frame = [0u8; MAX_FRAME];
         let mut overrun = false;
         let mut identify = false;
-        let mut last_state = control.supervisor().state();
         // What one receive interrupt costs outside its measured body.
         let entry_exit = serial::calibrate_entry_exit();
         defmt::println!(
@@ -190,22 +207,8 @@ mod app {
                 // Already running: it will find the new bytes.
                 let _ = transmit::spawn();
             }
-            if report.state != last_state {
-                let (stack, _) = stack::stack_high_water();
-                let (torques, brakes) = drives::drive_outputs();
-                defmt::println!(
-                    "cycle {=u32}: {} -> {} ({}); drives {} N m, brakes {=bool}; counters {}; stack high-water mark {=u32} bytes",
-                    report.cycle,
-                    last_state,
-                    report.state,
-                    report.reason,
-                    torques,
-                    brakes,
-                    control.counters(),
-                    stack
-                );
-                last_state = report.state;
-            }
+            // Logged by the idle loop.
+            cx.local.changes.record(&report, control.counters());
             overrun = releases.next().await;
         }
     }
