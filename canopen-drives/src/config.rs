@@ -147,6 +147,17 @@ pub enum ConfigStep {
     CheckRatedTorque,
 }
 
+impl ConfigStep {
+    /// The object it writes or reads: index and sub-index (the SDO's
+    /// multiplexer, which the drive's answer repeats).
+    pub fn object(self) -> (u16, u8) {
+        match self {
+            ConfigStep::Write { index, sub, .. } => (index, sub),
+            ConfigStep::CheckRatedTorque => (0x6076, 0),
+        }
+    }
+}
+
 const fn w8(index: u16, sub: u8, value: u32) -> ConfigStep {
     ConfigStep::Write { index, sub, size: 1, value }
 }

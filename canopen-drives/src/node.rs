@@ -258,8 +258,7 @@ impl Node {
             (SDO_RESPONSE, 8) if self.sdo_pending => {
                 let mut payload = [0u8; 8];
                 payload.copy_from_slice(data);
-                self.on_sdo_response(&payload, now);
-                Received::Used
+                self.on_sdo_response(&payload, now)
             }
             (HEARTBEAT, 1) => {
                 self.on_heartbeat(data[0] & 0x7F, now);
@@ -294,9 +293,20 @@ impl Node {
         }
     }
 
-    fn on_sdo_response(&mut self, payload: &[u8; 8], now: u32) {
-        let Stage::Configure(step) = self.stage else { return };
-        let Some(client) = &mut self.sdo else { return };
+    /// The answer to the pending request. An answer (or abort) for another
+    /// object than the one asked for is not this request's: the late
+    /// answer to a request sent again after its timeout (both arrive), or
+    /// a stranger on the channel. It is dropped (garbage) and the request
+    /// waits on: taken, it would complete a write the drive never
+    /// acknowledged (`canopen-rs`'s client does not compare the
+    /// multiplexer, which CiA 301 puts in every answer, bytes 1-3).
+    fn on_sdo_response(&mut self, payload: &[u8; 8], now: u32) -> Received {
+        let Stage::Configure(step) = self.stage else { return Received::Garbage };
+        let Some(asked) = self.config_step(step).map(ConfigStep::object) else { return Received::Garbage };
+        if (u16::from_le_bytes([payload[1], payload[2]]), payload[3]) != asked {
+            return Received::Garbage;
+        }
+        let Some(client) = &mut self.sdo else { return Received::Garbage };
         self.sdo_pending = false;
         match client.on_response(payload) {
             SdoEvent::Complete(value) => {
@@ -310,7 +320,7 @@ impl Node {
                     };
                     if !matches {
                         self.latch(DriveFaultCause::Configuration, 0x6076);
-                        return;
+                        return Received::Used;
                     }
                 }
                 self.sdo_retried = false;
@@ -321,6 +331,7 @@ impl Node {
             // what was asked for.
             SdoEvent::Send(_) => self.latch(DriveFaultCause::Configuration, 0x0800_0000),
         }
+        Received::Used
     }
 
     fn enter(&mut self, stage: Stage, now: u32) {
@@ -391,11 +402,7 @@ impl Node {
                     self.send_sdo(s, now, out);
                 }
                 Some(s) if elapsed > self.timing.sdo_cycles => {
-                    let index = match s {
-                        ConfigStep::Write { index, .. } => index,
-                        ConfigStep::CheckRatedTorque => 0x6076,
-                    };
-                    self.latch(DriveFaultCause::NoAnswer, u32::from(index));
+                    self.latch(DriveFaultCause::NoAnswer, u32::from(s.object().0));
                 }
                 Some(_) => {}
             },

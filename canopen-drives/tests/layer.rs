@@ -391,18 +391,82 @@ fn garbage_frames_are_counted_and_change_nothing() {
     }
 }
 
+/// Drive 0's configuration step pending after at least `from` steps, and
+/// the object (index, sub-index) it writes or reads.
+fn pending_step(b: &mut Bench, from: u8) -> (u8, (u16, u8)) {
+    b.until(20, |b, _| matches!(b.layer.node(0).unwrap().stage(), Stage::Configure(s) if s >= from)).unwrap();
+    let Stage::Configure(step) = b.layer.node(0).unwrap().stage() else { unreachable!() };
+    let steps = canopen_drives::config::configuration(&configs()[0], &Timing::DEFAULT);
+    (step, steps[usize::from(step)].object())
+}
+
+/// An SDO answer's 8 bytes: command specifier, multiplexer, data.
+fn sdo_answer(command: u8, (index, sub): (u16, u8), data: u32) -> SimFrame {
+    let [i0, i1] = index.to_le_bytes();
+    let [d0, d1, d2, d3] = data.to_le_bytes();
+    SimFrame::standard(0x581, &[command, i0, i1, sub, d0, d1, d2, d3]).unwrap()
+}
+
+/// Answers on drive 0's SDO channel that name another object than the one
+/// asked for: the late answer to the request before (sent again after its
+/// timeout, both answers come), an abort of another transfer, a
+/// download-segment answer (no multiplexer). Each is dropped as garbage
+/// and the request waits for its own answer. Taken (as `canopen-rs`'s
+/// client alone takes them), the late answer completed the pending write
+/// before the drive answered it, and the drive's own answer, coming when
+/// nothing was pending, was dropped: a drive without the torque mode,
+/// which aborts the write of its mode of operation (0x6060), was started
+/// and run as if in cyclic synchronous torque mode.
+#[test]
+fn an_sdo_answer_for_another_object_is_dropped_and_the_drives_own_answer_counts() {
+    for refuses_torque_mode in [false, true] {
+        let mut b = Bench::new();
+        b.rig.drive(0).faults.no_torque_mode = refuses_torque_mode;
+        let port = b.layer.ports().0.inject.clone();
+        let (step, object) = pending_step(&mut b, 2);
+        assert_eq!(object, (0x6060, 0), "the mode of operation's write pending");
+        let steps = canopen_drives::config::configuration(&configs()[0], &Timing::DEFAULT);
+        let before = steps[usize::from(step) - 1].object();
+        let garbage = b.layer.counters().garbage;
+        port.borrow_mut().push_back(sdo_answer(0x60, before, 0));
+        port.borrow_mut().push_back(sdo_answer(0x80, (0x1000, 0), 0x0602_0000));
+        port.borrow_mut().push_back(SimFrame::standard(0x581, &[0x30, 0, 0, 0, 0, 0, 0, 0]).unwrap());
+        if refuses_torque_mode {
+            let (_, f) = b.fault(5);
+            assert_eq!(f, DriveFault { drive: 0, cause: DriveFaultCause::Configuration, code: 0x0609_0030 });
+            assert_ne!(b.rig.drive(0).nmt(), Nmt::Operational, "never started");
+        } else {
+            b.until(100, |b, r| r.is_ok() && b.layer.node(0).unwrap().ready()).expect("drive 0 up");
+            assert_eq!(b.layer.node(0).unwrap().fault(), None);
+            assert_eq!(b.rig.drive(0).mode(), 10);
+        }
+        assert_eq!(b.layer.counters().garbage - garbage, 3, "{:?}", b.layer.counters());
+    }
+}
+
+/// An answer that names the pending object but is not the answer to its
+/// request (an upload's answer to a download): the transfer is refused,
+/// typed; the other drives go on.
 #[test]
 fn an_sdo_answer_out_of_sequence_at_start_up_is_a_configuration_fault() {
-    // A download-segment answer with the toggle bit (0x30) where the
-    // expedited download's 0x60 belongs: the transfer is refused, typed.
     let mut b = Bench::new();
     let port = b.layer.ports().0.inject.clone();
-    b.until(20, |b, _| matches!(b.layer.node(0).unwrap().stage(), Stage::Configure(s) if s >= 2)).unwrap();
-    port.borrow_mut().push_back(SimFrame::standard(0x581, &[0x30, 0, 0, 0, 0, 0, 0, 0]).unwrap());
+    let (_, object) = pending_step(&mut b, 2);
+    port.borrow_mut().push_back(sdo_answer(0x43, object, 0));
     let (_, f) = b.fault(5);
     assert_eq!((f.drive, f.cause), (0, DriveFaultCause::Configuration), "{f:?}");
-    // The other drives went on.
     b.until(100, |b, _| b.layer.node(1).unwrap().ready()).expect("drive 1 up");
+}
+
+/// An abort of the pending transfer is a configuration fault with its code.
+#[test]
+fn an_sdo_abort_of_the_pending_write_is_a_configuration_fault_with_its_code() {
+    let mut b = Bench::new();
+    let port = b.layer.ports().0.inject.clone();
+    let (_, object) = pending_step(&mut b, 3);
+    port.borrow_mut().push_back(sdo_answer(0x80, object, 0x0609_0030));
+    let (_, f) = b.fault(5);
+    assert_eq!((f.drive, f.cause, f.code), (0, DriveFaultCause::Configuration, 0x0609_0030), "{f:?}");
 }
 
 #[test]
