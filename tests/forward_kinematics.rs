@@ -708,24 +708,68 @@ fn warm_started_trajectory_is_continuous() {
 
 // ---------------------------------------------------------------- (7)
 
+/// The least-squares minimum of `sum r_i^2` near `from`, computed here
+/// independently of the library: Gauss-Newton on a central-difference
+/// Jacobian of [`lengths_of`], through an SVD, halving a step until the
+/// sum falls, 400 iterations. Returns the RMS residual there.
+fn least_squares_rms<T: Real>(
+    robot: &Robot<T, 6, 8>,
+    lengths: &SVector<f64, 8>,
+    from: &SVector<f64, 6>,
+) -> f64 {
+    let residual = |x: &SVector<f64, 6>| lengths_of(robot, x) - lengths;
+    let mut x = *from;
+    let mut r = residual(&x);
+    for _ in 0..400 {
+        let h = 1e-7;
+        let j = DMatrix::from_fn(8, 6, |i, k| {
+            let mut a = x;
+            let mut b = x;
+            a[k] += h;
+            b[k] -= h;
+            (residual(&a)[i] - residual(&b)[i]) / (2.0 * h)
+        });
+        let rv = nalgebra::DVector::from_column_slice(r.as_slice());
+        let Ok(dx) = j.svd(true, true).solve(&(-rv), 1e-12) else { break };
+        let mut step = 1.0;
+        let mut moved = false;
+        while step > 1e-6 {
+            let trial = x + SVector::<f64, 6>::from_fn(|k, _| step * dx[k]);
+            let rt = residual(&trial);
+            if rt.norm_squared() < r.norm_squared() {
+                (x, r, moved) = (trial, rt, true);
+                break;
+            }
+            step *= 0.5;
+        }
+        if !moved {
+            break;
+        }
+    }
+    (r.norm_squared() / 8.0).sqrt()
+}
+
 /// One cable stretched, slack or short by 5 cm to 50 cm at poses across the
-/// workspace: no pose has those lengths, and the answer is a failure,
-/// `inconsistent-lengths` (a least-squares minimum beyond the consistency
-/// threshold) or `no-convergence` (the iteration cap: at a large residual
-/// Gauss-Newton converges only linearly), warm from the true pose and cold;
-/// never `ok`, never another error. Prints the split. A run that reaches
-/// the least-squares minimum to the type's precision (the step's promised
-/// decrease below the rounding of the sum of squares) counts as converged:
-/// suspended-8 at its centre with cable 1 0.5 m long was `no-convergence`
-/// with the absolute stopping test alone (`cdpr forward`), and is
-/// `inconsistent-lengths`.
+/// workspace: no pose has those lengths, and the answer is
+/// `inconsistent-lengths`, warm from the true pose and cold, in f64 and
+/// f32: never `ok`, never `no-convergence`, never another error. At such
+/// residuals Gauss-Newton converges only linearly and a run can meet the
+/// iteration cap first: it then ends inconsistent when its last step found
+/// the linear model's best residual beyond twice the consistency threshold
+/// with the step within an eighth of it (`gauss_newton`). Before that
+/// rule IPAnema 1 ran to the cap in 180 of 240 cases (f64) and 120 (f32),
+/// suspended-8 in 16 and 4: `no-convergence`. The closest pose it reports
+/// (f64, warm) is near the least-squares minimum, found here independently
+/// from it: within 2 % in RMS residual.
+/// Suspended-8 at its centre with cable 1 0.5 m long was `no-convergence`
+/// with the absolute stopping test alone (`cdpr forward`).
 #[test]
 fn a_stretched_or_slack_cable_is_never_a_pose() {
-    fn verdicts<T: Real>(name: &str) -> [usize; 2] {
+    fn verdicts<T: Real>(name: &str) -> (usize, f64) {
         let robot: Robot<T, 6, 8> = shipped_robot(name);
         let settings = ForwardSettings::for_robot(&robot);
-        // [inconsistent, no-convergence]
-        let mut count = [0; 2];
+        let mut inconsistent = 0;
+        let mut worst_excess = 0.0f64;
         for u in [[0.5, 0.5, 0.5], [0.2, 0.7, 0.4], [0.8, 0.3, 0.6]] {
             let truth = pose_in(&robot, 0.15, u, [0.05, -0.05, 0.1]);
             let good = lengths_of(&robot, &truth);
@@ -734,23 +778,34 @@ fn a_stretched_or_slack_cable_is_never_a_pose() {
                     let mut l = good;
                     l[cable] += delta;
                     for warm in [Some(cast::<T, 6>(&truth)), None] {
-                        match robot.forward_kinematics(&cast::<T, 8>(&l), warm.as_ref(), &settings) {
-                            Err(ForwardError::InconsistentLengths) => count[0] += 1,
-                            Err(ForwardError::NoConvergence) => count[1] += 1,
+                        match robot.forward_kinematics_attempt(&cast::<T, 8>(&l), warm.as_ref(), &settings) {
+                            Err(f) if f.error == ForwardError::InconsistentLengths => {
+                                inconsistent += 1;
+                                let closest = f.closest.expect("the closest pose");
+                                if warm.is_some() && T::eps() < T::lit(1e-10) {
+                                    let reported: f64 = closest.rms.to_subset().expect("real");
+                                    let minimum = least_squares_rms(&robot, &l, &back(&closest.pose));
+                                    assert!(minimum <= reported * (1.0 + 1e-9));
+                                    worst_excess = worst_excess.max(reported / minimum - 1.0);
+                                }
+                            }
                             Ok(sol) => panic!("{name}: cable {cable} {delta:+} m: ok, worst {:?}", sol.worst),
-                            Err(e) => panic!("{name}: cable {cable} {delta:+} m: {e}"),
+                            Err(f) => panic!("{name}: cable {cable} {delta:+} m: {}", f.error),
                         }
                     }
                 }
             }
         }
-        count
+        (inconsistent, worst_excess)
     }
     for name in ["suspended-8", "ipanema1"] {
-        let (c64, c32) = (verdicts::<f64>(name), verdicts::<f32>(name));
-        println!("{name}: f64 {c64:?}, f32 {c32:?} (inconsistent-lengths, no-convergence)");
-        assert_eq!(c64[0] + c64[1], 240);
-        assert_eq!(c32[0] + c32[1], 240);
+        let ((c64, excess), (c32, _)) = (verdicts::<f64>(name), verdicts::<f32>(name));
+        println!(
+            "{name}: inconsistent-lengths f64 {c64} of 240, f32 {c32} of 240; the reported RMS at most {:.3} % above the least-squares minimum's (f64, warm)",
+            100.0 * excess
+        );
+        assert_eq!((c64, c32), (240, 240));
+        assert!(excess <= 0.02, "{name}: {excess}");
     }
     let robot: Robot<f64, 6, 8> = shipped_robot("suspended-8");
     let mut l = lengths_of(&robot, &SVector::<f64, 6>::new(0.0, 0.0, 1.5, 0.0, 0.0, 0.0));

@@ -38,8 +38,14 @@
 //! triangular solves.
 //!
 //! A run *converges* when the undamped step's length change `|J dx|_inf`
-//! is at most [`ForwardSettings::tolerance`]; the answer is the point where
-//! that step was computed, so the residuals reported are exact there.
+//! is at most [`ForwardSettings::tolerance`] (or `sqrt(eps)` times the
+//! worst residual: the least-squares minimum to the type's precision); the
+//! answer is the point where that step was computed, so the residuals
+//! reported are exact there. A run that meets the iteration cap ends
+//! *inconsistent* instead of unconverged when its last step found the
+//! lengths beyond reach: the linear model's best worst residual beyond
+//! twice [`ForwardSettings::consistency`], the step within an eighth of it
+//! (lengths no pose has, where Gauss-Newton converges only linearly).
 //!
 //! # Warm and cold starts
 //! * Warm: one run from the previous cycle's pose.
@@ -161,7 +167,8 @@ pub struct ForwardSettings<T: Real> {
     /// m: a run has converged when the undamped step's length change
     /// `|J dx|_inf` is at most this, or at most `sqrt(eps)` times the
     /// worst residual (a least-squares minimum to the type's precision:
-    /// lengths that no pose has end there).
+    /// lengths that no pose has end there, or at the iteration cap beyond
+    /// reach of consistency: the module documentation).
     pub tolerance: T,
     /// m: a converged pose whose worst `|residual|` is above this is
     /// inconsistent ([`ForwardError::InconsistentLengths`]; on the warm run it
@@ -898,23 +905,27 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         let slack = T::one() + T::lit(64.0) * T::eps();
         let mut used = 0u32;
         let mut converged = false;
+        // Whether the last Gauss-Newton step found the lengths beyond reach
+        // (`gauss_newton`).
+        let mut beyond_reach = false;
         let mut condition = lin.condition;
         while used < s.max_iterations {
             // The undamped (Gauss-Newton) step; with a stale Jacobian, the
             // chord step, and a refresh when that is not yet small.
-            let mut gn = gauss_newton(&lin, &cur.r, s.tolerance);
+            let mut gn = gauss_newton(&lin, &cur.r, s, used + 1 >= s.max_iterations);
             if stale && !matches!(gn, Step::Converged) {
                 lin = self.linearise(&cur);
                 stale = false;
-                gn = gauss_newton(&lin, &cur.r, s.tolerance);
+                gn = gauss_newton(&lin, &cur.r, s, used + 1 >= s.max_iterations);
             }
             condition = lin.condition;
+            beyond_reach = matches!(gn, Step::Full(_, true));
             let dx = match gn {
                 Step::Converged => {
                     converged = true;
                     break;
                 }
-                Step::Full(dx) if mu == T::zero() => dx,
+                Step::Full(dx, _) if mu == T::zero() => dx,
                 _ => {
                     if mu == T::zero() {
                         mu = mu_min;
@@ -961,6 +972,13 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
                 }
             }
         }
+        // At the cap, lengths beyond reach from the last step's point end
+        // the run as inconsistent: it is near a least-squares minimum whose
+        // residual no pose nearby brings under the consistency threshold
+        // (the classification rejects it on its worst residual).
+        if !converged && used >= s.max_iterations && beyond_reach {
+            converged = true;
+        }
         Some((RunEnd { point: cur, converged, condition }, used))
     }
 }
@@ -977,24 +995,35 @@ enum Verdict {
 
 enum Step<T: Real, const N: usize> {
     Converged,
-    Full(SVector<T, N>),
+    /// The step, and whether the lengths are beyond reach from the point.
+    Full(SVector<T, N>, bool),
     Singular,
 }
 
 /// The Gauss-Newton step `-(J^T J)^-1 J^T r`, or `Converged` when its
-/// length change `|J dx|_inf` is within `tol`, or within `sqrt(eps)` of the
-/// residual `|r|_inf`: the decrease the step promises, `|J dx|^2`, is then
-/// below the rounding of the sum of squares itself (`eps |r|^2`), and the
-/// point is the least-squares minimum to the type's precision. Lengths that
-/// no pose has (a stretched, slack or broken cable) end there with a large
-/// residual, where Gauss-Newton converges only linearly: the absolute test
-/// alone left them to the iteration cap (`no-convergence`, a 0.5 m stretch
-/// on suspended-8) instead of `inconsistent-lengths`. Consistent lengths
-/// meet the absolute test first (their residual is rounding and noise).
+/// length change `|J dx|_inf` is within the tolerance, or within
+/// `sqrt(eps)` of the residual `|r|_inf`: the decrease the step promises,
+/// `|J dx|^2`, is then below the rounding of the sum of squares itself
+/// (`eps |r|^2`), and the point is the least-squares minimum to the type's
+/// precision. Consistent lengths meet the absolute test first (their
+/// residual is rounding and noise).
+///
+/// A full step also says, when it is the run's `last` (its iteration
+/// meets the cap), whether the lengths are beyond reach from the
+/// point ([`Step::Full`]'s flag): the linear model's best worst residual,
+/// at least the RMS of `r + J dx` (the step minimises its 2-norm, and
+/// `|v|_inf >= |v|_2 / sqrt(M)`), exceeds twice the consistency threshold,
+/// and the step changes no length by more than an eighth of that RMS (the
+/// point is near a minimum, where the model holds). Lengths that no pose
+/// has (a stretched, slack or broken cable) end at a large residual, where
+/// Gauss-Newton converges only linearly and a run can meet the iteration
+/// cap before the tests above: a run whose last step was beyond reach ends
+/// inconsistent rather than unconverged (`Robot::run`).
 fn gauss_newton<T: Real, const N: usize, const M: usize>(
     lin: &Linear<T, N, M>,
     r: &SVector<T, M>,
-    tol: T,
+    s: &ForwardSettings<T>,
+    last: bool,
 ) -> Step<T, N> {
     let Some(f) = &lin.factor else { return Step::Singular };
     let g = lin.j.tr_mul(r);
@@ -1002,12 +1031,17 @@ fn gauss_newton<T: Real, const N: usize, const M: usize>(
     if !all_finite(dx.iter().copied()) {
         return Step::Singular;
     }
-    let change = worst_of(&(lin.j * dx));
-    if change <= tol || change <= T::eps().sqrt_native() * worst_of(r) {
-        Step::Converged
-    } else {
-        Step::Full(dx)
+    let jdx = lin.j * dx;
+    let change = worst_of(&jdx);
+    if change <= s.tolerance || change <= T::eps().sqrt_native() * worst_of(r) {
+        return Step::Converged;
     }
+    if !last {
+        return Step::Full(dx, false);
+    }
+    let beyond = T::lit(2.0) * s.consistency;
+    let mean_square = (r + jdx).norm_squared() / T::lit(M as f64);
+    Step::Full(dx, mean_square > beyond * beyond && T::lit(64.0) * change * change <= mean_square)
 }
 
 /// The damped step `-(J^T J + mu (diag(J^T J) + d))^-1 J^T r`, `d` a floor
