@@ -79,6 +79,22 @@ pub struct Derivation {
 /// `robot`'s demo trajectory (see the module's description); an error
 /// says which step found nothing.
 pub fn derive(robot: &Robot68) -> Result<Derivation, String> {
+    let d = derive_loop(robot)?;
+    let range = SetpointRange::for_robot(&to_f32(robot)?);
+    let (params, infeasible_run) = excursion(robot, d.params, &range)?;
+    Ok(Derivation {
+        params,
+        centre_robustness: d.centre_robustness,
+        loop_robustness: d.loop_robustness,
+        scale: d.scale,
+        infeasible_run,
+    })
+}
+
+/// Steps 1 and 2 of [`derive`]: the centre and the loop (no excursion:
+/// `excursion` is zero, `infeasible_run` 0). `hal-sim` builds its
+/// scenarios for a robot file on them.
+pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
     let range = SetpointRange::for_robot(&to_f32(robot)?);
     let margin = f64::from(SetpointRange::MARGIN);
     let lo: [f64; 3] = core::array::from_fn(|k| f64::from(range.position_min[k]) + margin);
@@ -147,13 +163,18 @@ pub fn derive(robot: &Robot68) -> Result<Derivation, String> {
         }
         scale *= SHRINK;
     }
-    let mut params = params.ok_or_else(|| {
+    let params = params.ok_or_else(|| {
         format!(
             "no loop around the centre {centre:?} keeps the tensions {MARGIN} of the range from the limits"
         )
     })?;
+    Ok(Derivation { params, centre_robustness, loop_robustness, scale, infeasible_run: 0 })
+}
 
-    // 3. The excursion.
+/// Step 3 of [`derive`]: the excursion added to the loop's `params`, and
+/// the longest run of its infeasible cycles.
+fn excursion(robot: &Robot68, params: Params, range: &SetpointRange) -> Result<(Params, u32), String> {
+    let (start, ramp, hold) = EXCURSION_TIMES;
     let inside = |p: &[f32; 3]| {
         (0..3).all(|k| {
             let (a, b) = (
@@ -191,7 +212,7 @@ pub fn derive(robot: &Robot68) -> Result<Derivation, String> {
             for factor in EXCURSION_FACTORS {
                 p.excursion = [0.0; 3];
                 p.excursion[axis] = sign * e * factor;
-                if let Some(run) = excursion_run(robot, &p, &range, &inside) {
+                if let Some(run) = excursion_run(robot, &p, range, &inside) {
                     if run >= INFEASIBLE_CYCLES {
                         found = Some((e, p, run));
                         break;
@@ -203,8 +224,7 @@ pub fn derive(robot: &Robot68) -> Result<Derivation, String> {
     let (_, excursion, infeasible_run) = found.ok_or(
         "no excursion along +-x, +-y, +-z leaves the workspace for long enough within the setpoint range",
     )?;
-    params = excursion;
-    Ok(Derivation { params, centre_robustness, loop_robustness, scale, infeasible_run })
+    Ok((excursion, infeasible_run))
 }
 
 /// The smallest barycenter robustness over the loop (every 5 ms, no

@@ -2,7 +2,8 @@
 //!
 //! The firmware's per-cycle logic (`cdpr-control`: setpoint to torques,
 //! the safety state machine, the serial link's meaning) in closed loop on
-//! the host, against a simulated suspended-8 robot:
+//! the host, against a simulated robot (suspended-8 by default; any
+//! 6-DOF, 8-cable robot file with `--robot`, [`site`]):
 //!
 //! * [`plant`]: winches (current loop, torque limit, Coulomb and viscous
 //!   friction, holding brake with an engagement delay, encoders) on
@@ -17,6 +18,9 @@
 //!   writing to the board's `canopen_drives::CanDrives`;
 //! * [`output`]: a CSV table and a PNG plot of each run.
 //!
+//! * [`site`]: the robot file and the poses of its scenarios (suspended-8's
+//!   hand-picked ones, or derived from another file's workspace).
+//!
 //! The models, gains, bounds and results are in `hal-sim/README.md`.
 
 #![forbid(unsafe_code)]
@@ -27,5 +31,7 @@ pub mod link;
 pub mod output;
 pub mod plant;
 pub mod scenario;
+pub mod site;
 
 pub use scenario::{run, Config, Outcome, Row, Scenario};
+pub use site::Site;

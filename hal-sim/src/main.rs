@@ -2,9 +2,13 @@
 //! and plots.
 //!
 //! ```text
-//! cargo run -p hal-sim --release -- --scenario NAME|all --out DIR
-//! cargo run -p hal-sim --release -- --list
+//! cargo run -p hal-sim --release -- --scenario NAME|all --out DIR [--robot FILE]
+//! cargo run -p hal-sim --release -- --list [--robot FILE]
 //! ```
+//!
+//! Without `--robot`, suspended-8 with the poses `hal-sim/README.md`'s
+//! figures are for; with it, any 6-DOF, 8-cable robot file, its poses
+//! derived from its workspace (`hal_sim::site`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -12,7 +16,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 use hal_sim::output::{figures, write};
-use hal_sim::{run, Config, Scenario};
+use hal_sim::{run, Config, Scenario, Site};
 
 /// Runs the closed-loop scenarios and writes their CSV tables and plots.
 #[derive(Debug, Parser)]
@@ -27,6 +31,10 @@ struct Args {
     /// Lists the scenarios with what each does, and exits.
     #[arg(long, conflicts_with_all = ["scenario", "out"])]
     list: bool,
+    /// The robot file (6 DOF, 8 cables): the scenarios' poses are derived
+    /// from its workspace. Default: suspended-8 with the README's poses.
+    #[arg(long, value_name = "FILE")]
+    robot: Option<PathBuf>,
 }
 
 /// `1.038` or `-`.
@@ -36,8 +44,25 @@ fn seconds(t: Option<f64>) -> String {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    let site = match &args.robot {
+        None => Site::suspended_8(),
+        Some(file) => match Site::derived(file) {
+            Ok(site) => site,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        },
+    };
+    let config = match Config::for_site(&site) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
     if args.list {
-        for s in Scenario::all() {
+        for s in Scenario::all_at(&site) {
             println!("{:<24} {}", s.name, s.description);
         }
         return ExitCode::SUCCESS;
@@ -47,12 +72,12 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     };
     let scenarios = if name == "all" {
-        Scenario::all()
+        Scenario::all_at(&site)
     } else {
-        match Scenario::named(&name) {
+        match Scenario::named_at(&site, &name) {
             Some(s) => vec![s],
             None => {
-                let names: Vec<String> = Scenario::all().into_iter().map(|s| s.name).collect();
+                let names: Vec<String> = Scenario::all_at(&site).into_iter().map(|s| s.name).collect();
                 eprintln!("error: unknown scenario `{name}` (scenarios: {}, or all)", names.join(", "));
                 return ExitCode::from(2);
             }
@@ -60,7 +85,7 @@ fn main() -> ExitCode {
     };
     for s in scenarios {
         // The drive and bus faults are the CAN buses' (`Config::can`).
-        let config = if s.can_fault.is_some() { Config::can() } else { Config::standard() };
+        let config = if s.can_fault.is_some() { config.on_can_buses() } else { config };
         let outcome = match run(&s, &config) {
             Ok(o) => o,
             Err(e) => {

@@ -120,7 +120,7 @@ fn not_enabled(rows: &[Row]) -> Vec<(f64, f64)> {
 /// estimator's residual; grey-red bands where the state is not Enabled.
 pub fn plots(outcome: &Outcome) -> [LinePlot; 4] {
     // The robot file's (uniform) tension limits, drawn as lines.
-    let limits: Vec<(f64, &str)> = crate::scenario::load_robot()
+    let limits: Vec<(f64, &str)> = crate::scenario::load_robot(&outcome.scenario.robot)
         .map(|r| vec![(r.limits().min()[0], "t_min"), (r.limits().max()[0], "t_max")])
         .unwrap_or_default();
     let rows = &outcome.rows;

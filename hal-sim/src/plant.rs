@@ -41,7 +41,21 @@ pub struct WinchModel {
 }
 
 impl WinchModel {
-    /// The model used by every scenario (see `hal-sim/README.md`).
+    /// This model for a motor `k` times as strong: the inertia and the
+    /// friction scaled by `k` (a smaller motor of the same family has a
+    /// smaller rotor and smaller losses; the delays and the encoder are
+    /// the same).
+    pub fn scaled(self, k: f64) -> Self {
+        Self {
+            motor_inertia: self.motor_inertia * k,
+            coulomb: self.coulomb * k,
+            viscous: self.viscous * k,
+            ..self
+        }
+    }
+
+    /// The model used by every scenario on suspended-8 (see
+    /// `hal-sim/README.md`; scaled by [`Self::scaled`] on other robots).
     pub const DEFAULT: Self = Self {
         motor_inertia: 1.4e-5,
         coulomb: 0.01,

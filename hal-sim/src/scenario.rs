@@ -37,6 +37,18 @@ use crate::link::{Host, SerialLink, SimClock, WallTicks, BAUD};
 use crate::plant::{
     CableModel, Derate, Disturbance, Encoders, Mismatch, Plant, PlantFaults, PlantRobot, WinchModel,
 };
+use crate::site::Site;
+
+/// `x` as a description shows it: up to four decimals, no trailing zeros.
+fn shown(x: f64) -> String {
+    let s = format!("{x:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
+}
 
 /// Control period, s.
 pub const PERIOD: f64 = 0.001;
@@ -53,7 +65,8 @@ pub enum Path {
     /// `start` s, back to `base` at rest: with `phi = 2 pi s(u)`, `s` the
     /// 7th-degree time law and `u = (t - start) / period`, the pose is
     /// `base + [AX sin phi, AY sin 2 phi, AZ (1 - cos phi), RX sin 2 phi,
-    /// RY sin phi, RZ sin phi]` with the amplitudes of [`LOOP_AMPLITUDES`].
+    /// RY sin phi, RZ sin phi]` with `amplitudes` (suspended-8's:
+    /// [`LOOP_AMPLITUDES`]).
     Loop {
         /// Start and end pose.
         base: [f64; 6],
@@ -61,6 +74,8 @@ pub enum Path {
         start: f64,
         /// Duration, s.
         period: f64,
+        /// `[AX, AY, AZ, RX, RY, RZ]`, m and rad.
+        amplitudes: [f64; 6],
     },
     /// `from` until `at` s, then `to` (both at rest): a step.
     Jump {
@@ -73,7 +88,7 @@ pub enum Path {
     },
 }
 
-/// `[AX, AY, AZ, RX, RY, RZ]` of [`Path::Loop`], m and rad.
+/// `[AX, AY, AZ, RX, RY, RZ]` of suspended-8's [`Path::Loop`], m and rad.
 pub const LOOP_AMPLITUDES: [f64; 6] = [0.8, 0.35, 0.35, 0.05, 0.05, 0.1];
 
 impl Path {
@@ -82,12 +97,12 @@ impl Path {
         match *self {
             Path::Hold(p) => (p, [0.0; 6], [0.0; 6]),
             Path::Jump { from, to, at } => (if t < at { from } else { to }, [0.0; 6], [0.0; 6]),
-            Path::Loop { base, start, period } => {
+            Path::Loop { base, start, period, amplitudes } => {
                 let (s, ds, dds) = time_law((t - start) / period);
                 let tau = 2.0 * core::f64::consts::PI;
                 let (phi, dphi, ddphi): (f64, f64, f64) =
                     (tau * s, tau * ds / period, tau * dds / (period * period));
-                let a = LOOP_AMPLITUDES;
+                let a = amplitudes;
                 let (s1, c1) = phi.sin_cos();
                 let (s2, c2) = (2.0 * phi).sin_cos();
                 let f = [a[0] * s1, a[1] * s2, a[2] * (1.0 - c1), a[3] * s2, a[4] * s1, a[5] * s1];
@@ -143,6 +158,8 @@ pub struct Scenario {
     /// A drive or bus fault at `event` (runs on the CAN buses only:
     /// [`Config::can`]).
     pub can_fault: Option<CanFault>,
+    /// The robot file: the plant's robot and the controller's.
+    pub robot: std::path::PathBuf,
 }
 
 /// The anchor error of every scenario, m: each of the plant's anchors is
@@ -163,22 +180,10 @@ pub fn mismatch() -> Mismatch {
 /// The suffix of the joint-space variant of each scenario's name.
 pub const JOINT_SUFFIX: &str = "-joint";
 
-/// Static-hold poses of suspended-8 (conventions: pose order).
-pub const HOLD_POSES: [(&str, [f64; 6]); 4] = [
-    ("hold-centre", [0.0, 0.0, 1.8, 0.0, 0.0, 0.0]),
-    ("hold-corner", [0.8, 0.4, 2.0, 0.05, -0.05, 0.1]),
-    ("hold-high", [-0.9, -0.4, 2.4, 0.0, 0.08, -0.2]),
-    ("hold-low", [0.5, -0.6, 1.5, 0.1, 0.0, 0.0]),
-];
-
-/// The pose the fault scenarios (but the lost stream) start from and hold.
-pub const FAULT_POSE: [f64; 6] = [0.4, 0.2, 1.9, 0.03, -0.02, 0.05];
-
-/// The loop the tracking scenarios follow.
-pub const TRACK: Path = Path::Loop { base: [0.0, 0.0, 1.8, 0.0, 0.0, 0.0], start: 0.2, period: 8.0 };
+pub use crate::site::{FAULT_POSE, HOLD_POSES, TRACK};
 
 impl Scenario {
-    fn base(name: &str, description: &str, duration: f64, path: Path) -> Self {
+    fn base(site: &Site, name: &str, description: &str, duration: f64, path: Path) -> Self {
         Self {
             name: name.into(),
             description: description.into(),
@@ -194,6 +199,7 @@ impl Scenario {
             scheme: Scheme::TaskSpace,
             start_error: [0.0; 6],
             can_fault: None,
+            robot: site.file.clone(),
         }
     }
 
@@ -212,11 +218,18 @@ impl Scenario {
         Self { name: format!("{base}{}", Self::suffix(scheme)), scheme, ..self.clone() }
     }
 
-    /// Every scenario, each with the task-space PID (`NAME`) and with the
-    /// joint-space PID (`NAME-joint`).
+    /// Every scenario on suspended-8 ([`Site::suspended_8`]), each with
+    /// the task-space PID (`NAME`) and with the joint-space PID
+    /// (`NAME-joint`).
     pub fn all() -> Vec<Scenario> {
+        Self::all_at(&Site::suspended_8())
+    }
+
+    /// Every scenario on `site`'s robot and poses, each with the
+    /// task-space PID (`NAME`) and with the joint-space PID (`NAME-joint`).
+    pub fn all_at(site: &Site) -> Vec<Scenario> {
         let mut out = Vec::new();
-        for s in Self::task_space() {
+        for s in Self::task_space(site) {
             let joint = s.with_scheme(Scheme::JointSpace);
             out.push(s);
             out.push(joint);
@@ -226,64 +239,79 @@ impl Scenario {
 
     /// The four static holds, the tracking loop, the faults and the
     /// homing errors, with the task-space PID.
-    fn task_space() -> Vec<Scenario> {
+    fn task_space(site: &Site) -> Vec<Scenario> {
         let mut out = Vec::new();
-        for (name, pose) in HOLD_POSES {
-            let mut s = Self::base(
-                name,
-                "static hold for 10 s with a 2 % payload error and a 3-6 s push of (3, -2, 0) N, (0, 0, 0.2) N m",
-                10.05,
-                Path::Hold(pose),
-            );
-            s.disturbances.push(Disturbance {
-                start: 3.0,
-                end: 6.0,
-                wrench: [3.0, -2.0, 0.0, 0.0, 0.0, 0.2],
-            });
+        let push = crate::site::PUSH.map(|x| x * site.weight_scale);
+        let pushed = format!(
+            "static hold for 10 s with a 2 % payload error and a 3-6 s push of ({}, {}, {}) N, ({}, {}, {}) N m",
+            shown(push[0]),
+            shown(push[1]),
+            shown(push[2]),
+            shown(push[3]),
+            shown(push[4]),
+            shown(push[5])
+        );
+        for (name, pose) in site.holds {
+            let mut s = Self::base(site, name, &pushed, 10.05, Path::Hold(pose));
+            s.disturbances.push(Disturbance { start: 3.0, end: 6.0, wrench: push });
             out.push(s);
         }
-        out.push(Self::base("track", "one 8 s loop through the workspace and back", 8.5, TRACK));
+        let (fault_pose, track) = (site.fault_pose, site.track);
+        out.push(Self::base(site, "track", "one 8 s loop through the workspace and back", 8.5, track));
 
         let event = 1.0;
-        let mut s =
-            Self::base("cable-break", "cable 1 breaks at 1 s while holding", 2.0, Path::Hold(FAULT_POSE));
+        let mut s = Self::base(
+            site,
+            "cable-break",
+            "cable 1 breaks at 1 s while holding",
+            2.0,
+            Path::Hold(fault_pose),
+        );
         s.faults.cable_break = Some((0, event));
         s.event = Some(event);
         out.push(s);
 
+        // 0.03 N m on suspended-8's winches, less than holding takes.
+        let derated = 0.03 * site.motor_scale;
         let mut s = Self::base(
+            site,
             "winch-saturation",
-            "at 1 s drive 3 can deliver only 0.03 N m and reports its current limit",
+            &format!("at 1 s drive 3 can deliver only {} N m and reports its current limit", shown(derated)),
             2.0,
-            Path::Hold(FAULT_POSE),
+            Path::Hold(fault_pose),
         );
-        s.faults.derate = Some(Derate { cable: 2, at: event, torque: 0.03, report: true });
+        s.faults.derate = Some(Derate { cable: 2, at: event, torque: derated, report: true });
         s.event = Some(event);
         out.push(s);
 
+        let (to, what) = &site.infeasible;
         let mut s = Self::base(
+            site,
             "infeasible-setpoint",
-            "at 1 s the setpoint jumps to a pose outside the wrench-feasible workspace (z = 3.4 m): rejected as a jump",
+            &format!("at 1 s the setpoint jumps to {what}: rejected as a jump"),
             2.0,
-            Path::Jump { from: FAULT_POSE, to: [0.0, 0.0, 3.4, 0.0, 0.0, 0.0], at: event },
+            Path::Jump { from: fault_pose, to: *to, at: event },
         );
         s.event = Some(event);
         out.push(s);
 
+        let (to, what) = &site.out_of_range;
         let mut s = Self::base(
+            site,
             "out-of-range-setpoint",
-            "at 1 s the setpoint jumps outside the setpoint range (x = 3 m)",
+            &format!("at 1 s the setpoint jumps {what}"),
             2.0,
-            Path::Jump { from: FAULT_POSE, to: [3.0, 0.0, 1.9, 0.0, 0.0, 0.0], at: event },
+            Path::Jump { from: fault_pose, to: *to, at: event },
         );
         s.event = Some(event);
         out.push(s);
 
         let mut s = Self::base(
+            site,
             "lost-stream",
             "the host stops streaming at 1 s while holding",
             2.0,
-            Path::Hold(FAULT_POSE),
+            Path::Hold(fault_pose),
         );
         s.stream_until = Some(event);
         s.event = Some(event);
@@ -291,10 +319,11 @@ impl Scenario {
 
         let stop = 3.0;
         let mut s = Self::base(
+            site,
             "lost-stream-moving",
-            "the host stops streaming at 3 s, mid-loop at 0.9 m/s",
+            &format!("the host stops streaming at 3 s, {}", site.motion.0),
             4.0,
-            TRACK,
+            track,
         );
         s.stream_until = Some(stop);
         s.event = Some(stop);
@@ -302,10 +331,11 @@ impl Scenario {
 
         let stuck = 2.0;
         let mut s = Self::base(
+            site,
             "encoder-stuck",
-            "encoder 1 stops counting at 2 s, mid-loop (the platform at 0.57 m/s)",
+            &format!("encoder 1 stops counting at 2 s, {}", site.motion.1),
             3.0,
-            TRACK,
+            track,
         );
         s.faults.encoder_stuck = Some((0, stuck));
         s.event = Some(stuck);
@@ -325,35 +355,38 @@ impl Scenario {
             ),
             ("can-bus-off", "CAN2 goes bus-off at the board at 2 s, mid-loop", CanFault::BusOff { bus: 1 }),
         ] {
-            let mut s = Self::base(name, description, 3.0, TRACK);
+            let mut s = Self::base(site, name, description, 3.0, track);
             s.can_fault = Some(fault);
             s.event = Some(stuck);
             out.push(s);
         }
 
         let mut s = Self::base(
+            site,
             "wrong-homing",
             "the host homes (and starts its loop) 20 mm off the true pose, along x",
             8.5,
-            TRACK,
+            track,
         );
         s.start_error = [0.02, 0.0, 0.0, 0.0, 0.0, 0.0];
         out.push(s);
 
         let mut s = Self::base(
+            site,
             "wrong-homing-rotation",
             "the host homes (and starts its loop) 0.1 rad off the true pose, about z",
             8.5,
-            TRACK,
+            track,
         );
         s.start_error = [0.0, 0.0, 0.0, 0.0, 0.0, 0.1];
         out.push(s);
 
         let mut s = Self::base(
+            site,
             "drive-unreadable",
             "from 1 s drive 5 cannot be read, while holding",
             2.0,
-            Path::Hold(FAULT_POSE),
+            Path::Hold(fault_pose),
         );
         s.faults.unreadable = Some((4, event));
         s.event = Some(event);
@@ -370,9 +403,14 @@ impl Scenario {
         p
     }
 
-    /// The scenario called `name`.
+    /// The scenario called `name`, on suspended-8.
     pub fn named(name: &str) -> Option<Scenario> {
         Self::all().into_iter().find(|s| s.name == name)
+    }
+
+    /// The scenario called `name`, on `site`.
+    pub fn named_at(site: &Site, name: &str) -> Option<Scenario> {
+        Self::all_at(site).into_iter().find(|s| s.name == name)
     }
 }
 
@@ -431,25 +469,39 @@ pub struct Config {
 
 /// The controller's friction model: 80 % of the simulated winches'
 /// Coulomb and viscous friction (an identification that is 20 % short).
-pub const FRICTION_ESTIMATE: FrictionCompensation = FrictionCompensation {
-    coulomb: 0.8 * WinchModel::DEFAULT.coulomb as f32,
-    coulomb_speed: WinchModel::DEFAULT.coulomb_speed as f32,
-    viscous: 0.8 * WinchModel::DEFAULT.viscous as f32,
-};
+pub const FRICTION_ESTIMATE: FrictionCompensation = friction_estimate(WinchModel::DEFAULT);
+
+/// [`FRICTION_ESTIMATE`]'s rule for `winch`: 80 % of its friction.
+pub const fn friction_estimate(winch: WinchModel) -> FrictionCompensation {
+    FrictionCompensation {
+        coulomb: 0.8 * winch.coulomb as f32,
+        coulomb_speed: winch.coulomb_speed as f32,
+        viscous: 0.8 * winch.viscous as f32,
+    }
+}
 
 /// Closed-loop bandwidth of the PID's translations and rotations: the
 /// triple pole at `-2 pi 5 Hz` (see `hal-sim/README.md`).
 pub const OMEGA: f32 = 2.0 * core::f32::consts::PI * 5.0;
 
 impl Config {
-    /// The settings of `hal-sim/README.md` (the gains from the robot
-    /// file's platform; panics if the shipped robot file cannot be read).
+    /// The settings of `hal-sim/README.md` for suspended-8 (panics if the
+    /// shipped robot file cannot be read).
     pub fn standard() -> Self {
-        let robot = load_robot().unwrap_or_else(|e| panic!("{e}"));
+        Self::for_site(&Site::suspended_8()).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The settings of `hal-sim/README.md` for `site`'s robot: the gains
+    /// from its platform, the feedback's bounds scaled by its weight
+    /// ([`Site::weight_scale`]: the firmware's rule), the winches'
+    /// inertia and friction scaled by their motors ([`Site::motor_scale`]).
+    pub fn for_site(site: &Site) -> Result<Self, String> {
+        let robot = load_robot(&site.file)?;
         let platform = robot.platform();
         let mass = platform.mass as f32;
         let inertia = platform.inertia.map(|x| x as f32);
-        Self {
+        let k = site.weight_scale as f32;
+        Ok(Self {
             dt: 1.0e-4,
             length_limit: 0.02,
             gains: Gains::triple_pole(
@@ -459,24 +511,29 @@ impl Config {
                 OMEGA,
             ),
             limits: FeedbackLimits {
-                force_max: 50.0,
-                moment_max: 6.0,
-                integral_max: [20.0, 20.0, 20.0, 2.0, 2.0, 2.0],
+                force_max: 50.0 * k,
+                moment_max: 6.0 * k,
+                integral_max: [20.0, 20.0, 20.0, 2.0, 2.0, 2.0].map(|x| x * k),
             },
             baud: BAUD,
             stream: Stream::POINTS,
-            winch: WinchModel::DEFAULT,
+            winch: WinchModel::DEFAULT.scaled(site.motor_scale),
             cable: CableModel::DEFAULT,
-            friction: Some(FRICTION_ESTIMATE),
+            friction: Some(friction_estimate(WinchModel::DEFAULT.scaled(site.motor_scale))),
             can: false,
             estimator: EstimatorSettings::DEFAULT,
             back_off: cdpr_control::BackOff::ForceFirst,
             loop_delay: 0.0,
-        }
+        })
     }
 
     /// [`Config::standard`] with the winches on the CAN buses.
     pub fn can() -> Self {
+        Self::standard().on_can_buses()
+    }
+
+    /// These settings with the winches on the CAN buses.
+    pub fn on_can_buses(self) -> Self {
         let delay_ns = canopen_drives::added_loop_delay_ns(
             crate::can::STEP_NS as u32,
             4,
@@ -487,7 +544,7 @@ impl Config {
             can: true,
             loop_delay: delay_ns as f32 * 1e-9,
             estimator: EstimatorSettings::FIELD_BUS,
-            ..Self::standard()
+            ..self
         }
     }
 }
@@ -593,31 +650,23 @@ fn pose_error(robot: &PlantRobot, reference: &[f64; 6], pose: &[f64; 6]) -> [f64
     }
 }
 
-/// The robot file the plant is built from.
-pub fn robot_file_path() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/suspended-8.toml")
-}
-
 /// Loads the robot file as the plant's robot.
-pub fn load_robot() -> Result<PlantRobot, String> {
-    let path = robot_file_path();
-    let file = robot_file::RobotFile::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    file.to_robot::<f64, 6, CABLES>().map_err(|e| format!("{}: {e:?}", path.display()))
+pub fn load_robot(path: &std::path::Path) -> Result<PlantRobot, String> {
+    let file = robot_file::RobotFile::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    file.to_robot::<f64, 6, CABLES>().map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Loads the robot file as the controller's robot (`f32`, as on the board).
-pub fn load_controller_robot() -> Result<ControlRobot, String> {
-    let path = robot_file_path();
-    let file = robot_file::RobotFile::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    file.to_robot::<f32, 6, CABLES>().map_err(|e| format!("{}: {e:?}", path.display()))
+pub fn load_controller_robot(path: &std::path::Path) -> Result<ControlRobot, String> {
+    let file = robot_file::RobotFile::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    file.to_robot::<f32, 6, CABLES>().map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// The robot file's encoders: the control loop's scale and the plant's
 /// counting.
-fn load_encoders() -> Result<(EncoderScale, [i8; CABLES], u32), String> {
-    let path = robot_file_path();
-    let file = robot_file::RobotFile::load(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let winch = file.winch.ok_or("no [winch]")?;
+fn load_encoders(path: &std::path::Path) -> Result<(EncoderScale, [i8; CABLES], u32), String> {
+    let file = robot_file::RobotFile::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let winch = file.winch.ok_or_else(|| format!("{}: no [winch]", path.display()))?;
     let mut signs = [1i8; CABLES];
     for (s, &f) in signs.iter_mut().zip(&file.encoder.signs) {
         *s = f;
@@ -633,18 +682,18 @@ pub const CAN_START_CYCLES: u32 = 500;
 
 /// Runs `scenario` with `config`.
 pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
-    let robot = load_robot()?;
+    let robot = load_robot(&scenario.robot)?;
     let mut plant =
         Plant::new(robot, config.winch, config.cable, scenario.mismatch, scenario.true_start(), config.dt)
             .map_err(|e| format!("start pose: {}", e.status()))?;
-    let (scale, signs, cpr) = load_encoders()?;
+    let (scale, signs, cpr) = load_encoders(&scenario.robot)?;
     plant.set_encoders(Encoders { counts_per_revolution: cpr, signs, ..plant.encoders() });
     plant.set_faults(scenario.faults);
     for d in &scenario.disturbances {
         plant.add_disturbance(*d);
     }
-    let file_robot = load_robot()?;
-    let controller_robot = load_controller_robot()?;
+    let file_robot = load_robot(&scenario.robot)?;
+    let controller_robot = load_controller_robot(&scenario.robot)?;
     let range = SetpointRange::for_robot(&controller_robot);
     let mut control = ControlLoop::new(controller_robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
         .map_err(|e| format!("control loop: {}", e.status()))?;
@@ -677,7 +726,7 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     // NMT start: about 60 ms) with the platform on its brakes; the host's
     // script (and the records) start once they are ready.
     let mut can = if config.can {
-        let file = robot_file::RobotFile::load(robot_file_path()).map_err(|e| e.to_string())?;
+        let file = robot_file::RobotFile::load(&scenario.robot).map_err(|e| e.to_string())?;
         let mut c = CanWinches::for_robot_file(&file)?;
         let mut ready = false;
         for _ in 0..CAN_START_CYCLES {

@@ -45,3 +45,30 @@ fn usage_errors_exit_2_and_say_what_is_wrong() {
     // Nothing was written for the unknown scenario.
     assert!(!std::path::Path::new("x").exists());
 }
+
+/// `--robot FILE`: the listing of that robot's derived site (its own
+/// numbers in the descriptions); a file the simulator cannot take, or
+/// none, exits 2 and says why.
+#[test]
+fn robot_lists_its_own_scenarios_or_says_why_not() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/ipanema1.toml");
+    let (code, stdout, stderr) = run(&["--list", "--robot", file]);
+    assert_eq!(code, 0, "{stderr}");
+    let site = hal_sim::Site::derived(std::path::Path::new(file)).unwrap();
+    let all = Scenario::all_at(&site);
+    assert_eq!(stdout.lines().count(), all.len());
+    for (line, s) in stdout.lines().zip(&all) {
+        assert!(line.starts_with(&s.name) && line.ends_with(&s.description), "{line}");
+    }
+    // Not suspended-8's: the push scaled by the weight, its own jumps.
+    assert_ne!(stdout, run(&["--list"]).1);
+    assert!(stdout.contains(&site.out_of_range.1), "{stdout}");
+    for (robot, expected) in [
+        (concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/planar3-5.toml"), "6 DOF x 8 cables"),
+        ("no/such/robot.toml", "no/such/robot.toml"),
+    ] {
+        let (code, stdout, stderr) = run(&["--list", "--robot", robot]);
+        assert_eq!(code, 2, "{robot}: {stderr}");
+        assert!(stdout.is_empty() && stderr.contains(expected), "{robot}: {stderr}");
+    }
+}

@@ -98,7 +98,7 @@ fn feed_forward_alone_does_not_hold() {
 #[test]
 fn tracking_a_loop_through_the_workspace() {
     let config = Config::standard();
-    let robot = hal_sim::scenario::load_controller_robot().unwrap();
+    let robot = hal_sim::scenario::load_controller_robot(&hal_sim::site::suspended_8_file()).unwrap();
     let (t_min, t_max) = (robot.limits().min()[0], robot.limits().max()[0]);
     // Joint space: the loop completes, Enabled throughout. The bounds were
     // 0.5 mm and 0.75 deg with the true pose and no anchor error; now
