@@ -324,6 +324,10 @@ impl ControlLoop {
     /// triple pole at [`DEFAULT_OMEGA`] (the joint-space gains at the
     /// centre of the setpoint range's box, unrotated; without them, e.g.
     /// where that pose has no kinematics, `SelectFeedback(2)` is refused).
+    /// The task-space gains come from the platform's mass and the diagonal
+    /// of its inertia: a robot file without `[platform] inertia` gives
+    /// zero rotation gains, and `SelectFeedback(1)` is refused while the
+    /// PID leaves an axis without feedback ([`TaskPid::acts_on_every_axis`]).
     pub fn new(
         robot: ControlRobot,
         method: Method,
@@ -665,7 +669,14 @@ impl ControlLoop {
                 }
             }
             Event::SelectFeedback(scheme) => {
-                let offered = scheme != Scheme::JointSpace || self.joint_pid.is_some();
+                // A PID that cannot act on every axis is not offered: the
+                // host would take the platform's pose to be held when its
+                // orientation (no inertia in the robot file) is not.
+                let offered = match scheme {
+                    Scheme::JointSpace => self.joint_pid.is_some(),
+                    Scheme::TaskSpace => self.task_pid.acts_on_every_axis(),
+                    Scheme::FeedForward => true,
+                };
                 if !offered {
                     self.counters.reject(Rejection::Range);
                 } else if self.supervisor.state() != State::Disabled {

@@ -267,6 +267,14 @@ impl TaskPid {
         &self.gains
     }
 
+    /// Whether every axis has a positive proportional gain: not so for a
+    /// platform without inertia ([`Gains::triple_pole`] of a zero inertia
+    /// gives zero rotation gains), whose orientation this PID would leave
+    /// to the feed-forward alone.
+    pub fn acts_on_every_axis(&self) -> bool {
+        self.gains.kp.iter().all(|&k| k > 0.0)
+    }
+
     /// The limits.
     pub fn limits(&self) -> &FeedbackLimits {
         &self.limits

@@ -407,6 +407,34 @@ fn select_feedback_only_in_disabled_and_known() {
     assert_eq!(rig.control.scheme(), Scheme::TaskSpace);
 }
 
+/// A robot file without `[platform] inertia` gives the task-space PID zero
+/// rotation gains: selecting it is refused (`Range`, as the joint-space
+/// PID without gains), the loop stays feed-forward; with the inertia the
+/// same selection is taken. Accepted, the host would believe the
+/// orientation held by feedback when only the feed-forward holds it.
+#[test]
+fn task_space_feedback_without_the_platforms_inertia_is_refused() {
+    let mut robot = common::suspended8();
+    let platform =
+        tension_core::Platform { inertia: tension_core::nalgebra::Matrix3::zeros(), ..*robot.platform() };
+    robot.set_platform(platform).unwrap();
+    let mut bare =
+        ControlLoop::new(robot, Method::Barycenter, common::setpoint_range(), SafetyLimits::DEFAULT).unwrap();
+    let g = *bare.task_pid().gains();
+    assert!(g.kp[..3].iter().all(|&k| k > 0.0) && g.kp[3..].iter().all(|&k| k == 0.0), "{g:?}");
+    assert!(!bare.task_pid().acts_on_every_axis());
+    bare.receive(HostMessage::SelectFeedback(1));
+    assert_eq!((bare.counters().rejected_range, bare.counters().last_rejection), (1, Rejection::Range));
+    assert_eq!(bare.scheme(), Scheme::FeedForward);
+    // The other schemes are still offered.
+    bare.receive(HostMessage::SelectFeedback(2));
+    assert_eq!((bare.scheme(), bare.counters().rejected_range), (Scheme::JointSpace, 1));
+    let mut control = control();
+    assert!(control.task_pid().acts_on_every_axis());
+    control.receive(HostMessage::SelectFeedback(1));
+    assert_eq!((control.scheme(), control.counters().rejected_range), (Scheme::TaskSpace, 0));
+}
+
 #[test]
 fn default_joint_gains_are_the_stated_ones() {
     // `feedback::JointGains`' doc: at the setpoint range's centre

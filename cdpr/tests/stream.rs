@@ -33,6 +33,8 @@ enum Trouble {
     Silent(u32),
     /// It was built for another robot (answers `Identify` with ipanema1).
     OtherRobot,
+    /// Its robot file gives the platform no inertia.
+    NoInertia,
 }
 
 /// The identity a board built from `robots/NAME.toml` answers with.
@@ -99,7 +101,14 @@ fn board(trouble: Trouble) -> Board {
     let received = Arc::new(AtomicU32::new(0));
     let counted = received.clone();
     let thread = std::thread::spawn(move || {
-        let robot = suspended8();
+        let mut robot = suspended8();
+        if trouble == Trouble::NoInertia {
+            let platform = tension_core::Platform {
+                inertia: tension_core::nalgebra::Matrix3::zeros(),
+                ..*robot.platform()
+            };
+            robot.set_platform(platform).unwrap();
+        }
         let range = SetpointRange::for_robot(&robot);
         let mut control = ControlLoop::new(robot, Method::Barycenter, range, SafetyLimits::DEFAULT).unwrap();
         // The platform rests at the waypoints' first pose.
@@ -368,6 +377,23 @@ fn a_board_built_for_another_robot_is_refused_before_anything_moves() {
     assert!(!last.homed && last.buffer_fill == 0, "{last:?}");
     assert_eq!(end.states, vec![State::Disabled]);
     assert!(last.counters.accepted <= 2, "{:?}", last.counters);
+}
+
+/// `--feedback task` on a board whose robot file gives the platform no
+/// inertia: the board refuses the task-space PID (its rotation gains
+/// would be zero), and the tool says why before anything moves.
+#[test]
+fn task_space_feedback_on_a_platform_without_inertia_is_refused_and_said_why() {
+    let dir = common::scratch("stream-no-inertia");
+    let b = board(Trouble::NoInertia);
+    let mut a = args(&dir, &b.address);
+    a.feedback = Some("task".into());
+    let e = stream::run(&a, &mut Vec::new(), &AtomicBool::new(false)).unwrap_err();
+    assert_eq!(e.exit_code(), 1);
+    assert!(e.message.contains("SelectFeedback refused") && e.message.contains("no inertia"), "{e}");
+    let end = b.thread.join().unwrap();
+    assert_eq!(end.states, vec![State::Disabled]);
+    assert_eq!(end.telemetry.last().unwrap().feedback, 0);
 }
 
 #[test]

@@ -706,6 +706,22 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     control.set_back_off(config.back_off);
     control.set_loop_delay(config.loop_delay);
     control.set_tracking_limit(Some(config.length_limit));
+    // The board refuses a scheme it has no PID for (`range`): said here,
+    // rather than a run labelled with a PID that never acted.
+    let refused = match scenario.scheme {
+        Scheme::TaskSpace if !control.task_pid().acts_on_every_axis() => Some(
+            "no task-space PID: the robot file gives the platform no inertia (its rotation gains would be \
+             zero), and the board refuses SelectFeedback(1)",
+        ),
+        Scheme::JointSpace if control.joint_pid().is_none() => Some(
+            "no joint-space PID: no kinematics at the setpoint range's centre, and the board refuses \
+             SelectFeedback(2)",
+        ),
+        _ => None,
+    };
+    if let Some(why) = refused {
+        return Err(format!("{}: {why}", scenario.robot.display()));
+    }
     let mut link = SerialLink::at_baud(config.baud);
     let mut next_point_ms = 0u32;
     let mut host = Host::new();

@@ -339,7 +339,21 @@ impl Session {
         }
         if let Some(f) = self.options.feedback {
             if !self.wait_for(observer, progress, timeout, |t| t.feedback == f)? {
-                return Err(SessionError::Refused("SelectFeedback", self.rejection()));
+                // `range`: the board has no such PID for its robot.
+                let why = match (self.rejection().as_str(), f) {
+                    ("range", 1) => {
+                        "range: no task-space PID for this robot, whose file gives the platform no \
+                                     inertia (its rotation gains would be zero)"
+                            .to_string()
+                    }
+                    ("range", 2) => {
+                        "range: no joint-space PID for this robot (no kinematics at the centre of \
+                                     its setpoint range)"
+                            .to_string()
+                    }
+                    (other, _) => other.to_string(),
+                };
+                return Err(SessionError::Refused("SelectFeedback", why));
             }
         }
         // The stream: flow control on the board's play time. Until the
