@@ -125,10 +125,9 @@ impl Site {
     /// module's description); an error says what was not found.
     pub fn derived(file: &FilePath) -> Result<Self, String> {
         let shown = file.display();
-        let robot: Robot68 = robot_file::RobotFile::load(file)
-            .map_err(|e| format!("{shown}: {e}"))?
-            .to_robot()
-            .map_err(|e| format!("{shown}: {e} (hal-sim simulates 6 DOF x 8 cables)"))?;
+        let parsed = robot_file::RobotFile::load(file).map_err(|e| format!("{shown}: {e}"))?;
+        let robot: Robot68 =
+            parsed.to_robot().map_err(|e| format!("{shown}: {e} (hal-sim simulates 6 DOF x 8 cables)"))?;
         let derivation = derive_loop(&robot).map_err(|e| format!("{shown}: {e}"))?;
         let p = derivation.params;
         let centre = [f64::from(p.centre[0]), f64::from(p.centre[1]), f64::from(p.centre[2]), 0.0, 0.0, 0.0];
@@ -166,11 +165,9 @@ impl Site {
         let mut base = centre;
         base[2] -= loop_amplitudes[2];
         let track = Path::Loop { base, start: 0.2, period: 8.0, amplitudes: loop_amplitudes };
+        // The board's range, from the robot in its f32.
         let range = SetpointRange::for_robot(
-            &robot_file::RobotFile::load(file)
-                .map_err(|e| format!("{shown}: {e}"))?
-                .to_robot::<f32, 6, 8>()
-                .map_err(|e| format!("{shown}: {e}"))?,
+            &parsed.to_robot::<f32, 6, 8>().map_err(|e| format!("{shown}: {e} (in the board's f32)"))?,
         );
         let infeasible = infeasible_target(&robot, &range, &fault_pose)
             .ok_or_else(|| format!("{shown}: no pose along x, y or z from the fault pose, inside the setpoint range, lacks static tensions"))?;
@@ -217,7 +214,8 @@ fn infeasible_target(robot: &Robot68, range: &SetpointRange, from: &[f64; 6]) ->
             Err(Error::Infeasible)
         )
     };
-    let mut best: Option<(f64, usize, f64)> = None;
+    // The nearest offset, and its axis.
+    let mut best: Option<(f64, usize)> = None;
     for axis in 0..3 {
         for sign in [1.0, -1.0] {
             for n in 1..2000 {
@@ -228,26 +226,22 @@ fn infeasible_target(robot: &Robot68, range: &SetpointRange, from: &[f64; 6]) ->
                 let mut pose = *from;
                 pose[axis] += d;
                 if infeasible(&pose) {
-                    if best.is_none_or(|(b, _, _)| d.abs() < b.abs()) {
-                        best = Some((d, axis, sign));
+                    if best.is_none_or(|(b, _)| d.abs() < b.abs()) {
+                        best = Some((d, axis));
                     }
                     break;
                 }
             }
         }
     }
-    let (d, axis, _) = best?;
-    let mut pose = *from;
-    pose[axis] += if inside(axis, from[axis] + 1.2 * d)
-        && infeasible(&{
-            let mut p = *from;
-            p[axis] += 1.2 * d;
-            p
-        }) {
-        1.2 * d
-    } else {
-        d
+    let (d, axis) = best?;
+    let at = |d: f64| {
+        let mut pose = *from;
+        pose[axis] += d;
+        pose
     };
+    let further = at(1.2 * d);
+    let pose = if inside(axis, further[axis]) && infeasible(&further) { further } else { at(d) };
     let name = ["x", "y", "z"][axis];
     Some((pose, format!("a pose outside the wrench-feasible workspace ({name} = {:.2} m)", pose[axis])))
 }
