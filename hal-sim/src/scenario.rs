@@ -710,8 +710,8 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     // rather than a run labelled with a PID that never acted.
     let refused = match scenario.scheme {
         Scheme::TaskSpace if !control.task_pid().acts_on_every_axis() => Some(
-            "no task-space PID: the robot file gives the platform no inertia (its rotation gains would be \
-             zero), and the board refuses SelectFeedback(1)",
+            "no task-space PID: its gains leave an axis without feedback (a robot file without [platform] \
+             inertia gives zero rotation gains), and the board refuses SelectFeedback(1)",
         ),
         Scheme::JointSpace if control.joint_pid().is_none() => Some(
             "no joint-space PID: no kinematics at the setpoint range's centre, and the board refuses \

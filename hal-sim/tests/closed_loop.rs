@@ -7,7 +7,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use cdpr_control::feedback::{Gains, Scheme};
+use cdpr_control::feedback::Scheme;
 use cdpr_control::protocol::{Reason, State};
 use cdpr_control::CABLES;
 use common::{scenario, states};
@@ -89,8 +89,9 @@ fn feed_forward_alone_does_not_hold() {
     // The test can fail: without the PID the 2 % payload error and the push
     // move the platform far beyond the bound (torque-controlled winches
     // give no position stiffness).
-    let config = Config { gains: Gains { kp: [0.0; 6], kd: [0.0; 6], ki: [0.0; 6] }, ..Config::standard() };
-    let o = run(&scenario("hold-centre"), &config).unwrap();
+    // (A task-space PID of zero gains is refused: `Scheme::FeedForward`.)
+    let s = Scenario { scheme: Scheme::FeedForward, ..scenario("hold-centre") };
+    let o = run(&s, &Config::standard()).unwrap();
     let f = figures(&o, 0.0);
     assert!(f.position_error > 5.0e-3 || o.transitions.len() > 1, "{f:?}");
 }

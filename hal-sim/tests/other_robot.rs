@@ -154,7 +154,7 @@ fn a_platform_without_inertia_has_no_task_space_scenario() {
     let site = Site::derived(&file).unwrap();
     let config = Config::for_site(&site).unwrap();
     let e = run(&Scenario::named_at(&site, "hold-centre").unwrap(), &config).unwrap_err();
-    assert!(e.contains("no task-space PID") && e.contains("no inertia"), "{e}");
+    assert!(e.contains("no task-space PID") && e.contains("without [platform] inertia"), "{e}");
     let o = run(&Scenario::named_at(&site, "hold-centre-joint").unwrap(), &config).unwrap();
     assert!(after_enable(&o).is_empty() && figures(&o, 0.0).position_error < 2e-3);
 }
