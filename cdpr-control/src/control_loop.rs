@@ -60,6 +60,20 @@ pub const DEFAULT_OMEGA: f32 = 2.0 * core::f32::consts::PI * 5.0;
 pub const DEFAULT_FEEDBACK_LIMITS: FeedbackLimits =
     FeedbackLimits { force_max: 20.0, moment_max: 2.0, integral_max: [10.0, 10.0, 10.0, 1.0, 1.0, 1.0] };
 
+/// The weight [`DEFAULT_FEEDBACK_LIMITS`] were set for (suspended-8: 6.34 kg
+/// under 9.81 m/s^2), N.
+pub const REFERENCE_WEIGHT: f32 = 6.34 * 9.81;
+
+/// A platform's weight, `mass |gravity|`, against [`REFERENCE_WEIGHT`]:
+/// what the feedback bounds (the firmware's, `hal-sim`'s) scale by, so
+/// that a light platform's feedback wrench stays as small against its
+/// weight and its tension range (1 for suspended-8; 0.016 for IPAnema 1's
+/// 0.1 kg).
+pub fn weight_scale(mass: f32, gravity: [f32; 3]) -> f32 {
+    let g = gravity;
+    mass * libm::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / REFERENCE_WEIGHT
+}
+
 /// How fast the task-space feedback comes back after it was backed off,
 /// per cycle: 2 % of the full wrench a cycle (0 to full in 50 ms at 1 kHz).
 ///

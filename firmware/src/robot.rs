@@ -51,15 +51,10 @@ pub fn setpoint_range(robot: &ControlRobot) -> SetpointRange {
     SetpointRange::for_robot(robot)
 }
 
-/// The weight the control loop's default feedback bounds were set for
-/// (suspended-8: 6.34 kg under 9.81 m/s^2), N.
-pub const REFERENCE_WEIGHT: f32 = 6.34 * 9.81;
-
-/// The platform's weight against [`REFERENCE_WEIGHT`]: what the feedback
-/// bounds scale by (1 for suspended-8; 0.016 for ipanema1's 0.1 kg).
+/// The platform's weight against the one the control loop's default
+/// feedback bounds were set for ([`cdpr_control::control_loop::weight_scale`]).
 pub fn weight_scale() -> f32 {
-    let g = GRAVITY;
-    MASS * libm::sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / REFERENCE_WEIGHT
+    cdpr_control::control_loop::weight_scale(MASS, GRAVITY)
 }
 
 /// The task-space PID's bounds for this robot: the control loop's defaults

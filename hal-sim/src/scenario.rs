@@ -501,6 +501,7 @@ impl Config {
         let mass = platform.mass as f32;
         let inertia = platform.inertia.map(|x| x as f32);
         let k = site.weight_scale as f32;
+        let winch = WinchModel::DEFAULT.scaled(site.motor_scale);
         Ok(Self {
             dt: 1.0e-4,
             length_limit: 0.02,
@@ -517,9 +518,9 @@ impl Config {
             },
             baud: BAUD,
             stream: Stream::POINTS,
-            winch: WinchModel::DEFAULT.scaled(site.motor_scale),
+            winch,
             cable: CableModel::DEFAULT,
-            friction: Some(friction_estimate(WinchModel::DEFAULT.scaled(site.motor_scale))),
+            friction: Some(friction_estimate(winch)),
             can: false,
             estimator: EstimatorSettings::DEFAULT,
             back_off: cdpr_control::BackOff::ForceFirst,
@@ -650,22 +651,36 @@ fn pose_error(robot: &PlantRobot, reference: &[f64; 6], pose: &[f64; 6]) -> [f64
     }
 }
 
+/// Reads the robot file.
+fn read_robot_file(path: &std::path::Path) -> Result<robot_file::RobotFile, String> {
+    robot_file::RobotFile::load(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The robot file's robot in `T` (`f64` for the plant, `f32` for the
+/// controller, as on the board).
+fn robot_of<T: tension_core::Real>(
+    file: &robot_file::RobotFile,
+    path: &std::path::Path,
+) -> Result<tension_core::Robot<T, 6, CABLES>, String> {
+    file.to_robot::<T, 6, CABLES>().map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// Loads the robot file as the plant's robot.
 pub fn load_robot(path: &std::path::Path) -> Result<PlantRobot, String> {
-    let file = robot_file::RobotFile::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    file.to_robot::<f64, 6, CABLES>().map_err(|e| format!("{}: {e}", path.display()))
+    robot_of(&read_robot_file(path)?, path)
 }
 
 /// Loads the robot file as the controller's robot (`f32`, as on the board).
 pub fn load_controller_robot(path: &std::path::Path) -> Result<ControlRobot, String> {
-    let file = robot_file::RobotFile::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    file.to_robot::<f32, 6, CABLES>().map_err(|e| format!("{}: {e}", path.display()))
+    robot_of(&read_robot_file(path)?, path)
 }
 
 /// The robot file's encoders: the control loop's scale and the plant's
 /// counting.
-fn load_encoders(path: &std::path::Path) -> Result<(EncoderScale, [i8; CABLES], u32), String> {
-    let file = robot_file::RobotFile::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
+fn encoders_of(
+    file: &robot_file::RobotFile,
+    path: &std::path::Path,
+) -> Result<(EncoderScale, [i8; CABLES], u32), String> {
     let winch = file.winch.ok_or_else(|| format!("{}: no [winch]", path.display()))?;
     let mut signs = [1i8; CABLES];
     for (s, &f) in signs.iter_mut().zip(&file.encoder.signs) {
@@ -682,18 +697,27 @@ pub const CAN_START_CYCLES: u32 = 500;
 
 /// Runs `scenario` with `config`.
 pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
-    let robot = load_robot(&scenario.robot)?;
-    let mut plant =
-        Plant::new(robot, config.winch, config.cable, scenario.mismatch, scenario.true_start(), config.dt)
-            .map_err(|e| format!("start pose: {}", e.status()))?;
-    let (scale, signs, cpr) = load_encoders(&scenario.robot)?;
+    // The robot file, read once: the plant's robot, the controller's, the
+    // encoders and the drives.
+    let path = &scenario.robot;
+    let file = read_robot_file(path)?;
+    let file_robot: PlantRobot = robot_of(&file, path)?;
+    let mut plant = Plant::new(
+        file_robot.clone(),
+        config.winch,
+        config.cable,
+        scenario.mismatch,
+        scenario.true_start(),
+        config.dt,
+    )
+    .map_err(|e| format!("start pose: {}", e.status()))?;
+    let (scale, signs, cpr) = encoders_of(&file, path)?;
     plant.set_encoders(Encoders { counts_per_revolution: cpr, signs, ..plant.encoders() });
     plant.set_faults(scenario.faults);
     for d in &scenario.disturbances {
         plant.add_disturbance(*d);
     }
-    let file_robot = load_robot(&scenario.robot)?;
-    let controller_robot = load_controller_robot(&scenario.robot)?;
+    let controller_robot: ControlRobot = robot_of(&file, path)?;
     let range = SetpointRange::for_robot(&controller_robot);
     let mut control = ControlLoop::new(controller_robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
         .map_err(|e| format!("control loop: {}", e.status()))?;
@@ -742,7 +766,6 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     // NMT start: about 60 ms) with the platform on its brakes; the host's
     // script (and the records) start once they are ready.
     let mut can = if config.can {
-        let file = robot_file::RobotFile::load(&scenario.robot).map_err(|e| e.to_string())?;
         let mut c = CanWinches::for_robot_file(&file)?;
         let mut ready = false;
         for _ in 0..CAN_START_CYCLES {

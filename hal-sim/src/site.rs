@@ -20,14 +20,9 @@ use std::path::{Path as FilePath, PathBuf};
 use cdpr_control::link::SetpointRange;
 use cdpr_demo::derive::{derive_loop, Robot68, MARGIN};
 use nalgebra::SVector;
-use tension_core::{Error, Method, TensionSolver};
+use tension_core::{Error, Method, Solution, TensionSolver};
 
 use crate::scenario::{Path, LOOP_AMPLITUDES};
-
-/// The weight the scenarios' push and the feedback bounds were set for
-/// (suspended-8: 6.34 kg under 9.81 m/s^2), N: the firmware's
-/// `REFERENCE_WEIGHT`.
-pub const REFERENCE_WEIGHT: f64 = 6.34 * 9.81;
 
 /// Suspended-8's winches' largest torque, N m (its `[winch] torque_max`),
 /// which the simulated winch model is for.
@@ -56,8 +51,10 @@ pub struct Site {
     /// A pose beyond the setpoint range: the `out-of-range-setpoint`
     /// jump's target, and what its description says of it.
     pub out_of_range: ([f64; 6], String),
-    /// The platform's weight against [`REFERENCE_WEIGHT`]: what the
-    /// holds' push ([`PUSH`]) and the feedback's bounds scale by.
+    /// The platform's weight against the one the feedback's defaults were
+    /// set for (`cdpr_control::control_loop::weight_scale`, the firmware's
+    /// rule): what the holds' push ([`PUSH`]) and the feedback's bounds
+    /// scale by.
     pub weight_scale: f64,
     /// The winches' `torque_max` against suspended-8's
     /// ([`SUSPENDED_8_TORQUE_MAX`]): what the simulated winches' inertia
@@ -141,7 +138,7 @@ impl Site {
             for _ in 0..20 {
                 let pose: [f64; 6] =
                     core::array::from_fn(|k| centre[k] + scale * fractions[k] * amplitude[k]);
-                if static_robustness(&robot, &pose).is_some_and(|r| r >= MARGIN * span) {
+                if static_solution(&robot, &pose).is_ok_and(|s| s.robustness >= MARGIN * span) {
                     return Ok(pose);
                 }
                 scale *= 0.8;
@@ -174,7 +171,11 @@ impl Site {
         let mut out = fault_pose;
         out[0] = f64::from(range.position_max[0])
             + 0.25 * f64::from(range.position_max[0] - range.position_min[0]);
-        let weight = robot.platform().mass * robot.platform().gravity.norm() / REFERENCE_WEIGHT;
+        let platform = robot.platform();
+        let weight = f64::from(cdpr_control::control_loop::weight_scale(
+            platform.mass as f32,
+            platform.gravity.map(|g| g as f32).into(),
+        ));
         Ok(Self {
             file: file.to_path_buf(),
             holds,
@@ -189,11 +190,10 @@ impl Site {
     }
 }
 
-/// The barycenter's robustness at `pose` at rest, cold, `None` without
-/// tensions.
-fn static_robustness(robot: &Robot68, pose: &[f64; 6]) -> Option<f64> {
-    let (w, f) = robot.wrench_problem(&SVector::from(*pose), &SVector::zeros(), None).ok()?;
-    TensionSolver::<f64, 8>::new(Method::Barycenter).solve(&w, &f, robot.limits()).ok().map(|s| s.robustness)
+/// The barycenter's tensions at `pose` at rest, cold.
+fn static_solution(robot: &Robot68, pose: &[f64; 6]) -> Result<Solution<f64, 8>, Error> {
+    let (w, f) = robot.wrench_problem(&SVector::from(*pose), &SVector::zeros(), None)?;
+    TensionSolver::<f64, 8>::new(Method::Barycenter).solve(&w, &f, robot.limits())
 }
 
 /// From `from`, the nearest pose along `+-x`, `+-y`, `+-z` (5 mm steps)
@@ -205,15 +205,7 @@ fn infeasible_target(robot: &Robot68, range: &SetpointRange, from: &[f64; 6]) ->
     let inside = |k: usize, v: f64| {
         v >= f64::from(range.position_min[k]) + margin && v <= f64::from(range.position_max[k]) - margin
     };
-    let infeasible = |pose: &[f64; 6]| {
-        let Ok((w, f)) = robot.wrench_problem(&SVector::from(*pose), &SVector::zeros(), None) else {
-            return false;
-        };
-        matches!(
-            TensionSolver::<f64, 8>::new(Method::Barycenter).solve(&w, &f, robot.limits()),
-            Err(Error::Infeasible)
-        )
-    };
+    let infeasible = |pose: &[f64; 6]| matches!(static_solution(robot, pose), Err(Error::Infeasible));
     // The nearest offset, and its axis.
     let mut best: Option<(f64, usize)> = None;
     for axis in 0..3 {

@@ -10,8 +10,8 @@ use std::time::{Duration, Instant};
 
 use cdpr_control::point_buffer::{DEPTH, START_DELAY_CYCLES};
 use cdpr_control::protocol::{
-    encode, DeviceMessage, FrameDecoder, HostMessage, Identity, Reason, State, Telemetry, TrajectoryPoint,
-    MAX_FRAME,
+    encode, DeviceMessage, FrameDecoder, HostMessage, Identity, Reason, Rejection, State, Telemetry,
+    TrajectoryPoint, MAX_FRAME,
 };
 
 use super::transport::{Pacer, Transport};
@@ -340,18 +340,19 @@ impl Session {
         if let Some(f) = self.options.feedback {
             if !self.wait_for(observer, progress, timeout, |t| t.feedback == f)? {
                 // `range`: the board has no such PID for its robot.
-                let why = match (self.rejection().as_str(), f) {
-                    ("range", 1) => {
-                        "range: no task-space PID for this robot, whose file gives the platform no \
-                                     inertia (its rotation gains would be zero)"
+                let range = self.last.is_some_and(|t| t.counters.last_rejection == Rejection::Range);
+                let why = match (range, f) {
+                    (true, 1) => {
+                        "range: no task-space PID for this robot, whose file gives the platform no inertia \
+                                  (its rotation gains would be zero)"
                             .to_string()
                     }
-                    ("range", 2) => {
-                        "range: no joint-space PID for this robot (no kinematics at the centre of \
-                                     its setpoint range)"
+                    (true, 2) => {
+                        "range: no joint-space PID for this robot (no kinematics at the centre of its \
+                                  setpoint range)"
                             .to_string()
                     }
-                    (other, _) => other.to_string(),
+                    _ => self.rejection(),
                 };
                 return Err(SessionError::Refused("SelectFeedback", why));
             }
