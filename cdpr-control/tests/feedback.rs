@@ -120,7 +120,16 @@ fn task_pid_bounds_are_checked_never_trusted() {
         proptest::array::uniform6(-5.0f32..5.0),
         1usize..40,
     );
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig::with_cases(512));
+    // A fixed seed, as the workspace's other campaigns (`PROPTEST_RNG_SEED`
+    // explores others): from a random one, the count below (bounded
+    // cycles, about 1 370 +- 180) fell under its old threshold of 1 000 in
+    // about one run in 60, a CI failure with no defect.
+    let rng_seed = match ProptestConfig::default().rng_seed {
+        proptest::test_runner::RngSeed::Random => proptest::test_runner::RngSeed::Fixed(20_261_207),
+        chosen => chosen,
+    };
+    let config = ProptestConfig { cases: 512, rng_seed, ..ProptestConfig::default() };
+    let mut runner = proptest::test_runner::TestRunner::new(config);
     let result = runner.run(&strategy, |(picks, error, rates, cycles)| {
         let bound = picks.map(|i| BOUNDS[i]);
         let limits = FeedbackLimits {
@@ -160,7 +169,10 @@ fn task_pid_bounds_are_checked_never_trusted() {
     assert!(result.is_ok(), "{result:?}");
     let (refused, bounded) = (TASK_REFUSED.load(Relaxed), TASK_BOUNDED.load(Relaxed));
     eprintln!("task-space PID: {refused} cases refused when made (InvalidLimits), {bounded} cycles bounded");
-    assert!(refused > 300 && bounded > 1_000, "{refused} {bounded}");
+    // About 443 +- 8 refused (7 of the 9 bounds valid, all 8 valid in
+    // 13 % of the cases) and 1 370 +- 180 cycles: both well clear of
+    // these, whatever the seed.
+    assert!(refused > 300 && bounded > 500, "{refused} {bounded}");
 }
 
 /// The same for the joint-space PID's integral bound: every bound of
