@@ -24,7 +24,7 @@ use tension_core::{Error, Method};
 
 use crate::controller::{Controller, Cycle, PhaseTicks, Saturation, Wrench};
 use crate::drives::{WinchDrives, WinchReading};
-use crate::encoder::{EncoderScale, Homing};
+use crate::encoder::{EncoderScale, Homing, ScaleError};
 use crate::estimator::{Estimate, EstimateError, Estimator, EstimatorSettings, Reference};
 use crate::feedback::{
     length_rates, FeedbackLimits, Gains, JointGains, JointPid, Prediction, Scheme, TaskPid,
@@ -332,7 +332,8 @@ impl ControlLoop {
     /// with the supervisor's `limits`. Starts Disabled, unhomed, with
     /// feed-forward only; the encoders are the robot file's defaults for
     /// the robot's winch (4096 counts per revolution, every sign +1:
-    /// [`ControlLoop::set_encoder`] sets the file's), the estimator's
+    /// [`ControlLoop::set_encoder`] sets the file's; `InvalidLimits` for a
+    /// robot whose longest cable they cannot count), the estimator's
     /// [`EstimatorSettings::DEFAULT`], the tracking limit
     /// [`DEFAULT_TRACKING_LIMIT`], and both feedback schemes' gains the
     /// triple pole at [`DEFAULT_OMEGA`] (the joint-space gains at the
@@ -350,6 +351,7 @@ impl ControlLoop {
     ) -> Result<Self, Error> {
         let winch = *robot.winch().ok_or(Error::UnsupportedShape)?;
         let scale = EncoderScale::with_defaults(winch.drum_radius, winch.gear_ratio)
+            .and_then(|scale| scale.check_reach(range.longest_cable(&robot)).map(|()| scale))
             .map_err(|_| Error::InvalidLimits)?;
         let platform = robot.platform();
         let inertia = [platform.inertia[(0, 0)], platform.inertia[(1, 1)], platform.inertia[(2, 2)]];
@@ -442,10 +444,15 @@ impl ControlLoop {
 
     /// The winch encoders' scale (from the robot file: `[winch]`'s
     /// `counts_per_revolution` and `encoder_sign`); forgets the homing.
-    pub fn set_encoder(&mut self, scale: EncoderScale) {
+    /// Refused ([`ScaleError::Reach`], nothing changed) when its 32-bit
+    /// counts cannot count the longest cable the setpoint range allows
+    /// ([`SetpointRange::longest_cable`]): such a cable's length would wrap.
+    pub fn set_encoder(&mut self, scale: EncoderScale) -> Result<(), ScaleError> {
+        scale.check_reach(self.link.range().longest_cable(self.controller.robot()))?;
         self.scale = scale;
         self.homing = None;
         self.estimator.forget();
+        Ok(())
     }
 
     /// The encoder scale.

@@ -12,6 +12,12 @@
 //! encoder's counter does) and read as signed: a cable may move at most
 //! 2^31 counts from its homing (for suspended-8's 7.7 um a count, 16 km).
 //!
+//! A cable whose length could move farther than that from its homing would
+//! wrap and read as a length it does not have: [`EncoderScale::check_reach`]
+//! refuses a scale that cannot count the robot's longest cable (a
+//! high-resolution encoder behind a gearbox: a 24-bit encoder at a gear
+//! ratio of 10 on a 4 cm drum counts 3.2 m).
+//!
 //! [`EncoderScale`] is the robot's conversion (pure, no state);
 //! [`Homing`] the offsets a `Home` sets: the lengths of the home pose's
 //! inverse kinematics and the counts read at that moment.
@@ -19,14 +25,47 @@
 use crate::drives::WinchReading;
 use crate::CABLES;
 
-/// Why an [`EncoderScale`] could not be made.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The largest count difference (and count rate) a 32-bit counter, or a
+/// drive's position object, carries: `2^31 - 1`.
+pub const COUNT_SPAN: f32 = 2_147_483_647.0;
+
+/// Why an [`EncoderScale`] could not be made, or cannot count a robot.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ScaleError {
     /// A drum radius or gear ratio that is not finite and positive, or
     /// zero counts per revolution.
     Winch,
     /// An encoder sign other than `+1` or `-1` (cable index).
     Sign(usize),
+    /// [`COUNT_SPAN`] counts are `reach` metres of cable, less than the
+    /// `longest` cable the robot may have (m): a cable moving farther from
+    /// its homing would wrap. `counts_max` is the most counts per motor
+    /// revolution that count it.
+    Reach {
+        /// m of cable in [`COUNT_SPAN`] counts.
+        reach: f32,
+        /// m, the longest cable ([`crate::link::SetpointRange::longest_cable`]).
+        longest: f32,
+        /// The largest `counts_per_revolution` whose reach covers `longest`.
+        counts_max: u32,
+    },
+}
+
+impl core::fmt::Display for ScaleError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            ScaleError::Winch => f.write_str(
+                "the encoders need a finite, positive drum radius and gear ratio and counts_per_revolution > 0",
+            ),
+            ScaleError::Sign(i) => write!(f, "cable {}: encoder_sign must be 1 or -1", i + 1),
+            ScaleError::Reach { reach, longest, counts_max } => write!(
+                f,
+                "2^31 encoder counts are {reach:.3} m of cable, and a cable within the setpoint range may be \
+                 {longest:.3} m long: its 32-bit count would wrap; counts_per_revolution must be at most \
+                 {counts_max} (a drive's position units coarser)"
+            ),
+        }
+    }
 }
 
 /// Metres of cable per encoder count, with each cable's sign.
@@ -34,6 +73,8 @@ pub enum ScaleError {
 pub struct EncoderScale {
     /// `s_i * 2 pi r / (cpr * G)`, m per count.
     per_count: [f32; CABLES],
+    /// `cpr`, for [`ScaleError::Reach`]'s advice.
+    counts_per_revolution: u32,
 }
 
 impl EncoderScale {
@@ -62,7 +103,7 @@ impl EncoderScale {
                 _ => return Err(ScaleError::Sign(i)),
             };
         }
-        Ok(Self { per_count })
+        Ok(Self { per_count, counts_per_revolution })
     }
 
     /// The robot file's defaults for `drum_radius` and `gear_ratio`:
@@ -74,6 +115,29 @@ impl EncoderScale {
     /// Signed metres per count of each cable (`s_i * 2 pi r / (cpr G)`).
     pub fn per_count(&self) -> &[f32; CABLES] {
         &self.per_count
+    }
+
+    /// Metres of cable in [`COUNT_SPAN`] counts: the farthest a cable may
+    /// move from its homing before its count difference wraps.
+    pub fn reach(&self) -> f32 {
+        COUNT_SPAN * libm::fabsf(self.per_count[0])
+    }
+
+    /// Whether the counts reach a cable `longest` metres long (a length
+    /// moves at most that far from any homing, lengths being at least 0):
+    /// [`ScaleError::Reach`] otherwise, with the counts per revolution
+    /// that would (this scale's scaled down by the shortfall).
+    pub fn check_reach(&self, longest: f32) -> Result<(), ScaleError> {
+        let reach = self.reach();
+        // NaN fails the comparison.
+        if longest < reach {
+            return Ok(());
+        }
+        let fraction = if longest.is_finite() && longest > 0.0 { reach / longest } else { 0.0 };
+        // Rounded down, a little under (f32), so that it passes this check.
+        let counts_max =
+            libm::floor(f64::from(self.counts_per_revolution) * f64::from(fraction) * (1.0 - 1e-6));
+        Err(ScaleError::Reach { reach, longest, counts_max: counts_max as u32 })
     }
 
     /// The offsets that make `readings` correspond to `lengths` (m): what

@@ -79,6 +79,26 @@ impl SetpointRange {
         }
     }
 
+    /// The longest cable `robot` can have at a pose within the range: from
+    /// each anchor to the farthest corner of the position box, plus the
+    /// attachment's distance from the platform's origin (whatever the
+    /// rotation), m. A bound: no pose the range accepts gives a longer one.
+    pub fn longest_cable<const N: usize, const M: usize>(&self, robot: &Robot<f32, N, M>) -> f32 {
+        let mut longest = 0.0f32;
+        for (anchor, attach) in robot.anchors().iter().zip(robot.attachments()) {
+            let mut far = 0.0f32;
+            for k in 0..3 {
+                let d = tension_core::max(
+                    libm::fabsf(anchor[k] - self.position_min[k]),
+                    libm::fabsf(self.position_max[k] - anchor[k]),
+                );
+                far += d * d;
+            }
+            longest = tension_core::max(longest, libm::sqrtf(far) + attach.norm());
+        }
+        longest
+    }
+
     /// Whether a pose is finite with its position in the box and its
     /// angles within `angle_max` (none is when `angle_max` is NaN or below
     /// zero); [`SetpointRange::contains`]'s test of the pose.

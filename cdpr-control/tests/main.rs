@@ -8,6 +8,7 @@ mod closed_loop;
 mod common;
 mod drive_fault;
 mod drives;
+mod encoder_reach;
 mod feedback;
 mod identify;
 mod link;

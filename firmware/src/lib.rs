@@ -160,9 +160,9 @@ impl Board {
         if let Err(e) = control.set_joint_gains(joint) {
             panic!("joint-space integral bound rejected: {}", e.status());
         }
-        match robot::encoder_scale() {
-            Ok(scale) => control.set_encoder(scale),
-            Err(e) => panic!("robot file's encoders rejected: {:?}", e),
+        // `build.rs` refuses a robot file whose encoders these refuse.
+        if let Err(e) = robot::encoder_scale().and_then(|scale| control.set_encoder(scale)) {
+            panic!("robot file's encoders rejected: {:?}", e);
         }
         // On the CAN buses the task-space PID predicts over the delay they
         // add (the step's frames queued about 0.1 ms in, 4 drives a bus at

@@ -676,8 +676,9 @@ pub fn load_controller_robot(path: &std::path::Path) -> Result<ControlRobot, Str
 }
 
 /// The robot file's encoders: the control loop's scale and the plant's
-/// counting.
-fn encoders_of(
+/// counting; refused when their counts cannot count the longest cable of
+/// the setpoint range (as the board refuses them: `ControlLoop::set_encoder`).
+pub(crate) fn encoders_of(
     file: &robot_file::RobotFile,
     path: &std::path::Path,
 ) -> Result<(EncoderScale, [i8; CABLES], u32), String> {
@@ -687,8 +688,11 @@ fn encoders_of(
         *s = f;
     }
     let cpr = file.encoder.counts_per_revolution;
+    let robot: ControlRobot = robot_of(file, path)?;
+    let longest = SetpointRange::for_robot(&robot).longest_cable(&robot);
     let scale = EncoderScale::new(winch[0] as f32, winch[1] as f32, cpr, signs)
-        .map_err(|e| format!("{}: encoder {e:?}", path.display()))?;
+        .and_then(|scale| scale.check_reach(longest).map(|()| scale))
+        .map_err(|e| format!("{}: [winch]: {e}", path.display()))?;
     Ok((scale, signs, cpr))
 }
 
@@ -722,7 +726,7 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let mut control = ControlLoop::new(controller_robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
         .map_err(|e| format!("control loop: {}", e.status()))?;
     control.controller_mut().set_friction(config.friction);
-    control.set_encoder(scale);
+    control.set_encoder(scale).map_err(|e| format!("{}: [winch]: {e}", path.display()))?;
     control.set_task_pid(
         TaskPid::new(config.gains, config.limits).map_err(|e| format!("feedback limits: {}", e.status()))?,
     );

@@ -125,6 +125,7 @@ impl Site {
         let parsed = robot_file::RobotFile::load(file).map_err(|e| format!("{shown}: {e}"))?;
         let robot: Robot68 =
             parsed.to_robot().map_err(|e| format!("{shown}: {e} (hal-sim simulates 6 DOF x 8 cables)"))?;
+        crate::scenario::encoders_of(&parsed, file)?;
         let derivation = derive_loop(&robot).map_err(|e| format!("{shown}: {e}"))?;
         let p = derivation.params;
         let centre = [f64::from(p.centre[0]), f64::from(p.centre[1]), f64::from(p.centre[2]), 0.0, 0.0, 0.0];

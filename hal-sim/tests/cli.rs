@@ -63,12 +63,25 @@ fn robot_lists_its_own_scenarios_or_says_why_not() {
     // Not suspended-8's: the push scaled by the weight, its own jumps.
     assert_ne!(stdout, run(&["--list"]).1);
     assert!(stdout.contains(&site.out_of_range.1), "{stdout}");
+    // suspended-8 with 2^31 counts a motor turn: 3 cm of cable in 2^31
+    // counts (it ran, and the platform went 218 mm off its loop, a cable
+    // slack, before a tracking fault).
+    let fine = std::env::temp_dir().join(format!("hal-sim-cli-{}-fine-encoder.toml", std::process::id()));
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/suspended-8.toml")).unwrap();
+    std::fs::write(
+        &fine,
+        text.replace("torque_max = 2.5", "torque_max = 2.5\ncounts_per_revolution = 2147483648"),
+    )
+    .unwrap();
     for (robot, expected) in [
         (concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/planar3-5.toml"), "6 DOF x 8 cables"),
         ("no/such/robot.toml", "no/such/robot.toml"),
+        (fine.to_str().unwrap(), "counts_per_revolution must be at most 9362"),
     ] {
         let (code, stdout, stderr) = run(&["--list", "--robot", robot]);
         assert_eq!(code, 2, "{robot}: {stderr}");
         assert!(stdout.is_empty() && stderr.contains(expected), "{robot}: {stderr}");
     }
+    let _ = std::fs::remove_file(&fine);
 }
