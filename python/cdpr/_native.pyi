@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from typing import Any, Optional, Tuple, Union
+from typing import Any, Literal, Optional, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -159,9 +159,16 @@ class Robot:
         released. ``wrenches``, ``velocities``, ``accelerations``: ``(n,)``
         for every pose or ``(k, n)``.
         """
-    def motor_torques(self, tensions: ArrayLike) -> Float64Array:
+    @overload
+    def motor_torques(self, tensions: ArrayLike, return_saturated: Literal[False] = ...) -> Float64Array:
         """Motor torques for ``(m,)`` or ``(k, m)`` tensions, N m, limited to
-        ``+-torque_max``; NaN where a tension is not finite."""
+        ``+-torque_max``; NaN where a tension is not finite. With
+        ``return_saturated=True``, ``(torques, saturated)``: ``True`` where
+        the limit cut the torque."""
+    @overload
+    def motor_torques(
+        self, tensions: ArrayLike, return_saturated: Literal[True]
+    ) -> Tuple[Float64Array, npt.NDArray[np.bool_]]: ...
     def workspace_axes(
         self, step: float, bounds: Optional[ArrayLike] = None
     ) -> Tuple[Float64Array, ...]:

@@ -514,10 +514,16 @@ impl Robot {
     /// `tau = t r / (G eta)`, limited to `+-torque_max` (conventions,
     /// `[winch]`). NaN where a tension is not finite (a failed row of
     /// `solve`). Raises `ValueError` when the robot has no `[winch]`.
+    /// With `return_saturated=True`, `(torques, saturated)`: `saturated`
+    /// a bool array of the same shape, `True` where the limit cut the
+    /// torque (the board's `Saturation`), so that no limited torque passes
+    /// for the one asked.
+    #[pyo3(signature = (tensions, return_saturated=false))]
     fn motor_torques<'py>(
         &self,
         py: Python<'py>,
         tensions: &Bound<'py, PyAny>,
+        return_saturated: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let winch = self.model.winch().ok_or_else(|| {
             PyValueError::new_err(format!(
@@ -536,9 +542,15 @@ impl Robot {
                 )))
             }
         }
-        let torques =
-            t.data.iter().map(|&x| winch.motor_torque(x).map_or(f64::NAN, |tau| tau.torque)).collect();
-        array_out(py, torques, &t.shape)
+        let commands: Vec<_> = t.data.iter().map(|&x| winch.motor_torque(x).ok()).collect();
+        let torques = commands.iter().map(|c| c.map_or(f64::NAN, |tau| tau.torque)).collect();
+        let torques = array_out(py, torques, &t.shape)?;
+        if !return_saturated {
+            return Ok(torques);
+        }
+        let saturated: Vec<bool> = commands.iter().map(|c| c.is_some_and(|tau| tau.saturated)).collect();
+        let saturated = PyArray1::from_vec(py, saturated).reshape(t.shape.clone())?.into_any();
+        Ok(PyTuple::new(py, [torques, saturated])?.into_any())
     }
 
     /// The grid `workspace(step, bounds)` scans: the cell centres along

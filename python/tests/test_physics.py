@@ -141,6 +141,25 @@ def test_motor_torques(robots):
         robots["planar-point-4"].motor_torques(np.ones(4))
 
 
+def test_motor_torques_say_which_the_limit_cut(robots):
+    # suspended-8: tau = t 0.04 / (8 0.9) = t / 180 N m, limit 2.5 N m:
+    # from 450 N a torque is cut (the board flags it; Python used to return
+    # the cut torque with no word).
+    robot = robots["suspended-8"]
+    tensions = np.array([[5.0, 449.0, 451.0, 1e6, -451.0, -1.0, 350.0, np.nan], [450.0] * 8])
+    tau, saturated = robot.motor_torques(tensions, return_saturated=True)
+    w = robot.winch
+    raw = tensions * w["drum_radius"] / (w["gear_ratio"] * w["efficiency"])  # the conventions' formula
+    expected = np.abs(raw) > w["torque_max"]
+    np.testing.assert_array_equal(saturated, expected)
+    assert saturated.dtype == np.bool_ and saturated.shape == tensions.shape
+    assert saturated[0].tolist() == [False, False, True, True, True, False, False, False]
+    np.testing.assert_allclose(tau[0, :7], np.clip(raw[0, :7], -2.5, 2.5), rtol=1e-15)
+    np.testing.assert_array_equal(tau, robot.motor_torques(tensions))
+    one, cut = robot.motor_torques(np.full(8, 500.0), return_saturated=True)
+    assert one.shape == (8,) and cut.all() and np.all(one == 2.5)
+
+
 @pytest.mark.parametrize("stem", ALL)
 def test_forward_kinematics_round_trip(robots, stem):
     robot = robots[stem]
