@@ -138,7 +138,7 @@ pub fn forward_error(py: Python<'_>, e: ForwardError, context: &str) -> PyErr {
         ForwardError::NoConvergence => "the iteration cap was hit (warm and cold starts)",
         ForwardError::IllConditioned => "the Jacobian is singular or ill-conditioned at the answer",
         ForwardError::InconsistentLengths => {
-            "converged, but the worst residual is beyond the consistency threshold: no pose has these lengths (a stretched, slack or broken cable, a wrong homing)"
+            "no pose of the robot has these lengths: the closest pose's worst residual is beyond the consistency threshold, or the lengths are beyond reach, or the only consistent pose lies farther from the robot than its size (a stretched, slack or broken cable, a wrong homing)"
         }
     };
     let message = format!("{context}: {}: {what}", e.status());

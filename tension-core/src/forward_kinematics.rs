@@ -130,10 +130,13 @@ pub enum ForwardError {
     /// [condition](ForwardSolution::condition) is beyond
     /// [`ForwardSettings::condition_max`].
     IllConditioned,
-    /// A run converged but its worst residual exceeds
-    /// [`ForwardSettings::consistency`], and the cold start found no
-    /// consistent pose either: no pose has these lengths (a stretched, slack
-    /// or broken cable, a wrong homing).
+    /// No pose of the robot has these lengths (a stretched, slack or broken
+    /// cable, a wrong homing): a run converged with its worst residual
+    /// beyond [`ForwardSettings::consistency`] or met the cap with the
+    /// lengths beyond reach (module documentation), and no start gave a
+    /// consistent pose within the robot's size of its region (the lengths
+    /// of a robot 1e30 m away are consistent: the closest pose reported is
+    /// then that far pose, its residual small).
     InconsistentLengths,
 }
 
