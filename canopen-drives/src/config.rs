@@ -302,9 +302,120 @@ const fn sync_end_ns(step_ns: u32, drives_per_bus: u32, bit_rate: u64) -> u64 {
 /// Mbit/s, [`Timing::DEFAULT`]'s cycle rate: 832.5 us.
 pub const BOARD_LOOP_DELAY_NS: u32 = added_loop_delay_ns(100_000, 4, 1_000_000, Timing::DEFAULT.cycle_hz);
 
+/// The most drives one bus serves in a cycle of `cycle_hz`: the largest
+/// count whose cycle's last position arrives before the next cycle's read
+/// ([`last_position_ns`] within the period), with the step's frames queued
+/// `step_ns` in and the drives answering the SYNC within `response_ns`.
+pub const fn drives_per_bus_max(step_ns: u32, bit_rate: u32, cycle_hz: u32, response_ns: u32) -> u32 {
+    let cycle_hz = if cycle_hz == 0 { 1 } else { cycle_hz } as u64;
+    let period = 1_000_000_000 / cycle_hz;
+    let mut n = 0;
+    // Bounded: a bus has 127 node ids.
+    while n < 127 && last_position_ns(step_ns, n + 1, bit_rate, response_ns) <= period {
+        n += 1;
+    }
+    n
+}
+
+/// The board's [`drives_per_bus_max`]: 1 Mbit/s, [`Timing::DEFAULT`]'s
+/// 1 kHz, a step as long as the 20 000-instruction budget at two cycles
+/// an instruction at 168 MHz (238 us) and 20 us for the drives' answers: 4.
+/// (Five drives' positions would be back 1.16 ms after the cycle's start,
+/// 1.03 ms with a 0.1 ms step; the README's "Bus load" has the frames.)
+pub const BOARD_DRIVES_PER_BUS: u32 =
+    drives_per_bus_max(238_095, 1_000_000, Timing::DEFAULT.cycle_hz, 20_000);
+
+/// A drive layout the board's buses cannot serve ([`check_layout`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LayoutError {
+    /// Bus `bus` (0 CAN1, 1 CAN2) has `drives` drives, more than
+    /// [`BOARD_DRIVES_PER_BUS`].
+    Crowded {
+        /// The bus, 0-based.
+        bus: u8,
+        /// Its drives.
+        drives: u32,
+    },
+    /// A drive on a bus the board does not have (0-based index).
+    NoSuchBus {
+        /// The drive (cable index).
+        drive: u8,
+        /// Its bus, 0-based.
+        bus: u8,
+    },
+}
+
+impl core::fmt::Display for LayoutError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            LayoutError::Crowded { bus, drives } => write!(
+                f,
+                "CAN{} has {drives} drives; a bus serves at most {BOARD_DRIVES_PER_BUS} at 1 Mbit/s and 1 kHz \
+                 (every position back before the next cycle), so spread them over both buses",
+                u32::from(bus) + 1
+            ),
+            LayoutError::NoSuchBus { drive, bus } => write!(
+                f,
+                "cable {}'s drive is on CAN{}; the board has CAN1 and CAN2",
+                u32::from(drive) + 1,
+                u32::from(bus) + 1
+            ),
+        }
+    }
+}
+
+/// Whether the board's two buses serve drives on `buses` (one 0-based bus
+/// per drive): at most [`BOARD_DRIVES_PER_BUS`] on each. A crowded bus
+/// brings its positions back after the next cycle's read, every cycle.
+pub fn check_layout(buses: &[u8]) -> Result<(), LayoutError> {
+    let mut count = [0u32; crate::drives::BUSES];
+    for (drive, &bus) in buses.iter().enumerate() {
+        match count.get_mut(usize::from(bus)) {
+            Some(c) => *c += 1,
+            None => return Err(LayoutError::NoSuchBus { drive: drive.min(255) as u8, bus }),
+        }
+    }
+    for (bus, &drives) in count.iter().enumerate() {
+        if drives > BOARD_DRIVES_PER_BUS {
+            return Err(LayoutError::Crowded { bus: bus as u8, drives });
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod delay_tests {
     use super::*;
+
+    #[test]
+    fn the_board_serves_four_drives_a_bus() {
+        assert_eq!(BOARD_DRIVES_PER_BUS, 4);
+        // By hand: 4 drives, a 238 us step: SYNC out at 238 + 4 x 75 + 55
+        // = 593 us, positions back at 593 + 20 + 4 x 95 = 993 us; a fifth
+        // drive: 238 + 430 + 20 + 475 = 1 163 us.
+        assert_eq!(last_position_ns(238_095, 4, 1_000_000, 20_000), 993_095);
+        assert_eq!(last_position_ns(238_095, 5, 1_000_000, 20_000), 1_163_095);
+        // Slower buses and cycles: fewer and more.
+        assert_eq!(drives_per_bus_max(238_095, 500_000, 1000, 20_000), 1);
+        assert_eq!(drives_per_bus_max(100_000, 1_000_000, 500, 20_000), 10);
+        assert_eq!(drives_per_bus_max(2_000_000, 1_000_000, 1000, 20_000), 0);
+        assert_eq!(drives_per_bus_max(0, u32::MAX, 1, 0), 127);
+    }
+
+    #[test]
+    fn layouts_the_buses_cannot_serve_are_refused_and_said() {
+        assert_eq!(check_layout(&[0, 0, 0, 0, 1, 1, 1, 1]), Ok(()));
+        assert_eq!(check_layout(&[1, 0, 1, 0, 1, 0, 1, 0]), Ok(()));
+        assert_eq!(check_layout(&[0; 4]), Ok(()));
+        assert_eq!(check_layout(&[]), Ok(()));
+        assert_eq!(check_layout(&[0; 8]), Err(LayoutError::Crowded { bus: 0, drives: 8 }));
+        assert_eq!(check_layout(&[0, 1, 1, 1, 1, 1, 0, 0]), Err(LayoutError::Crowded { bus: 1, drives: 5 }));
+        assert_eq!(check_layout(&[0, 1, 2]), Err(LayoutError::NoSuchBus { drive: 2, bus: 2 }));
+        let text = LayoutError::Crowded { bus: 0, drives: 8 }.to_string();
+        assert!(text.starts_with("CAN1 has 8 drives; a bus serves at most 4"), "{text}");
+        let text = LayoutError::NoSuchBus { drive: 2, bus: 2 }.to_string();
+        assert_eq!(text, "cable 3's drive is on CAN3; the board has CAN1 and CAN2");
+    }
 
     #[test]
     fn the_boards_added_loop_delay() {

@@ -47,6 +47,9 @@ pub mod node;
 #[cfg(feature = "sim")]
 pub mod sim;
 
-pub use config::{added_loop_delay_ns, last_position_ns, DriveConfig, Timing, BOARD_LOOP_DELAY_NS};
+pub use config::{
+    added_loop_delay_ns, check_layout, drives_per_bus_max, last_position_ns, DriveConfig, LayoutError,
+    Timing, BOARD_DRIVES_PER_BUS, BOARD_LOOP_DELAY_NS,
+};
 pub use drives::{emergency_frames, CanDrives, CanDrivesError, CanPort, ENABLES_PER_CYCLE};
 pub use frame::RawFrame;

@@ -525,6 +525,70 @@ fn drives_that_hear_no_board_quick_stop_by_themselves() {
 
 /// The cycle on a bus, from the bus's log: the RPDOs, then the SYNC, then
 /// the positions, all within the 1 ms; the bus load.
+/// A fifth drive on a bus is what `check_layout` refuses (a robot file
+/// with all eight on CAN1 was accepted and its drives never came up: found
+/// with `hal-sim --robot`). On the simulated buses (the step's frames 0.1 ms
+/// into the cycle): four drives a bus come up and each cycle's positions
+/// are back before the next read; with five on CAN1 the fifth position
+/// comes back after it, every cycle (read a cycle late: the loop's delay
+/// is not the one its PID predicts over, and the bus is 92 % busy); with
+/// eight the drives never come up.
+#[test]
+fn a_fifth_drive_on_a_bus_is_refused_as_the_bus_cannot_serve_it() {
+    let layout = |on_can1: usize| -> [DriveConfig; CABLES] {
+        core::array::from_fn(|i| {
+            let (bus, node) = if i < on_can1 { (0, i + 1) } else { (1, i - on_can1 + 1) };
+            DriveConfig { bus: bus as u8, node: node as u8, ..configs()[i] }
+        })
+    };
+    let mut outcomes = Vec::new();
+    for on_can1 in [4, 5, 8] {
+        let configs = layout(on_can1);
+        let buses = configs.map(|c| c.bus);
+        let refused = canopen_drives::check_layout(&buses).is_err();
+        let (rig, layer) = SimRig::new(configs, Timing::DEFAULT, None);
+        let mut b = Bench {
+            rig,
+            layer,
+            readings: [WinchReading::default(); CABLES],
+            brakes: true,
+            torques: [0.0; CABLES],
+        };
+        let ready_after = b.until(500, |_, r| r.is_ok());
+        // Once ready: 20 steady cycles, then CAN1's last position of a
+        // cycle, from the cycle's start (the next read is at 1 ms).
+        let mut last_position = None;
+        if ready_after.is_some() {
+            for _ in 0..20 {
+                b.cycle().unwrap();
+            }
+            b.rig.net(0).bus.logging = true;
+            let start = b.rig.now_ns;
+            for _ in 0..3 {
+                b.cycle().unwrap();
+            }
+            let net = b.rig.net(0);
+            let sync = net.bus.log.iter().find(|(s, _, _, f)| *s >= start && f.id == 0x080).map(|l| l.1);
+            let sync = sync.expect("a SYNC in the cycle");
+            last_position = net
+                .bus
+                .log
+                .iter()
+                .filter(|(s, _, _, f)| *s > sync && (0x181..=0x188).contains(&f.id))
+                .take(on_can1)
+                .map(|l| l.1 - start)
+                .max();
+        }
+        outcomes.push((on_can1, refused, ready_after, last_position));
+    }
+    println!(
+        "drives on CAN1, refused, ready after cycles, CAN1's last position of a cycle (ns): {outcomes:?}"
+    );
+    assert!(matches!(outcomes[0], (4, false, Some(n), Some(t)) if n < 100 && t < CYCLE_NS), "{outcomes:?}");
+    assert!(matches!(outcomes[1], (5, true, Some(_), Some(t)) if t > CYCLE_NS), "{outcomes:?}");
+    assert!(matches!(outcomes[2], (8, true, None, None)), "{outcomes:?}");
+}
+
 #[test]
 fn one_cycle_fits_the_bus_with_room() {
     let mut b = Bench::operating();

@@ -60,13 +60,17 @@ pub struct CanWinches {
 
 impl CanWinches {
     /// The drives of the robot file's `[winch]` (node ids, buses, rated
-    /// torque, `torque_max`).
+    /// torque, `torque_max`); refused as the board's build refuses them
+    /// when a bus has more drives than it serves
+    /// (`canopen_drives::check_layout`).
     pub fn for_robot_file(file: &robot_file::RobotFile) -> Result<Self, String> {
         let winch = file.winch.ok_or("the robot file has no [winch]")?;
         let rated = file.drives.rated_torque.ok_or("the robot file's [winch] has no rated_torque")?;
         if file.cables.len() != CABLES {
             return Err(format!("{} cables, the board has {CABLES}", file.cables.len()));
         }
+        let buses: Vec<u8> = file.drives.buses.iter().map(|b| b.wrapping_sub(1)).collect();
+        canopen_drives::check_layout(&buses).map_err(|e| format!("[winch] can_bus: {e}"))?;
         let configs: [DriveConfig; CABLES] = core::array::from_fn(|i| DriveConfig {
             bus: file.drives.buses[i] - 1,
             node: file.drives.node_ids[i],

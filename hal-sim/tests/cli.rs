@@ -85,3 +85,30 @@ fn robot_lists_its_own_scenarios_or_says_why_not() {
     }
     let _ = std::fs::remove_file(&fine);
 }
+
+/// A robot file with all eight drives on CAN1 (it was taken, and the CAN
+/// scenarios ended "the CAN drives were not ready after 500 cycles"): the
+/// scenarios on the buses stop with the reason before they run, as the
+/// firmware's build refuses the file; the others, which do not use the
+/// buses, are still listed and run.
+#[test]
+fn drives_crowded_on_one_bus_are_refused_with_the_reason() {
+    let crowded = std::env::temp_dir().join(format!("hal-sim-cli-{}-one-bus.toml", std::process::id()));
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/suspended-8.toml")).unwrap();
+    let text = text
+        .replace("node_id = [1, 2, 3, 4, 1, 2, 3, 4]", "node_id = [1, 2, 3, 4, 5, 6, 7, 8]")
+        .replace("can_bus = [1, 1, 1, 1, 2, 2, 2, 2]", "can_bus = [1, 1, 1, 1, 1, 1, 1, 1]");
+    assert!(text.contains("can_bus = [1, 1, 1, 1, 1, 1, 1, 1]"), "suspended-8's drives changed");
+    std::fs::write(&crowded, text).unwrap();
+    let file = crowded.to_str().unwrap();
+    let (code, stdout, _) = run(&["--list", "--robot", file]);
+    assert!(code == 0 && stdout.contains("can-drive-fault"), "{stdout}");
+    let out = std::env::temp_dir().join(format!("hal-sim-cli-{}-one-bus-out", std::process::id()));
+    let (code, _, stderr) =
+        run(&["--scenario", "can-bus-off", "--out", out.to_str().unwrap(), "--robot", file]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("CAN1 has 8 drives; a bus serves at most 4"), "{stderr}");
+    let _ = std::fs::remove_file(&crowded);
+    let _ = std::fs::remove_dir_all(&out);
+}
