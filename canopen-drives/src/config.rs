@@ -142,6 +142,10 @@ pub enum ConfigStep {
         /// The value (its low `size` bytes).
         value: u32,
     },
+    /// Read the modes of operation display 0x6061 (i8) and compare it with
+    /// the mode written (10, cyclic synchronous torque): the drive runs in
+    /// the mode the board commands in (CiA 402), not only acknowledged it.
+    CheckMode,
     /// Read the rated torque 0x6076 (u32, mN m) and compare it with the
     /// robot file's.
     CheckRatedTorque,
@@ -153,6 +157,7 @@ impl ConfigStep {
     pub fn object(self) -> (u16, u8) {
         match self {
             ConfigStep::Write { index, sub, .. } => (index, sub),
+            ConfigStep::CheckMode => (0x6061, 0),
             ConfigStep::CheckRatedTorque => (0x6076, 0),
         }
     }
@@ -168,8 +173,50 @@ const fn w32(index: u16, sub: u8, value: u32) -> ConfigStep {
     ConfigStep::Write { index, sub, size: 4, value }
 }
 
+/// The mode of operation the configuration writes to 0x6060 and checks
+/// in 0x6061: cyclic synchronous torque (CiA 402).
+pub const TORQUE_MODE: u8 = 10;
+
 /// Steps of [`configuration`].
-pub const CONFIG_STEPS: usize = 31;
+pub const CONFIG_STEPS: usize = 32;
+
+/// The objects of [`configuration`]'s steps, in order (they do not depend
+/// on the drive): what a drive's answer names, looked up without building
+/// the steps.
+pub const CONFIG_OBJECTS: [(u16, u8); CONFIG_STEPS] = [
+    (0x1017, 0),
+    (0x6007, 0),
+    (0x6060, 0),
+    (0x6072, 0),
+    (0x1400, 1),
+    (0x1600, 0),
+    (0x1600, 1),
+    (0x1600, 0),
+    (0x1400, 2),
+    (0x1400, 5),
+    (0x1400, 1),
+    (0x1401, 1),
+    (0x1601, 0),
+    (0x1601, 1),
+    (0x1601, 0),
+    (0x1401, 2),
+    (0x1401, 1),
+    (0x1800, 1),
+    (0x1A00, 0),
+    (0x1A00, 1),
+    (0x1A00, 0),
+    (0x1800, 2),
+    (0x1800, 1),
+    (0x1801, 1),
+    (0x1A01, 0),
+    (0x1A01, 1),
+    (0x1A01, 0),
+    (0x1801, 2),
+    (0x1801, 5),
+    (0x1801, 1),
+    (0x6061, 0),
+    (0x6076, 0),
+];
 
 /// A PDO COB-ID with bit 31 set: the PDO is invalid while it is mapped
 /// (CiA 301: the mapping may only change while it is).
@@ -195,15 +242,15 @@ const INVALID: u32 = 0x8000_0000;
 ///    the event timer `timing.status_refresh_ms`;
 ///
 /// each PDO made invalid, its mapping cleared, written and counted, its
-/// transmission type set and then made valid; and last the read of the
-/// rated torque 0x6076.
+/// transmission type set and then made valid; and last the reads of the
+/// mode the drive runs in, 0x6061, and of the rated torque 0x6076.
 pub fn configuration(config: &DriveConfig, timing: &Timing) -> [ConfigStep; CONFIG_STEPS] {
     let n = u32::from(config.node);
     let cob = |base: u16| u32::from(base) + n;
     [
         w16(0x1017, 0, u32::from(timing.heartbeat_ms)),
         w16(0x6007, 0, 3),
-        w8(0x6060, 0, 10),
+        w8(0x6060, 0, TORQUE_MODE as u32),
         w16(0x6072, 0, u32::from(config.max_torque_permille())),
         // RPDO1: target torque.
         w32(0x1400, 1, INVALID | cob(RPDO1)),
@@ -235,7 +282,8 @@ pub fn configuration(config: &DriveConfig, timing: &Timing) -> [ConfigStep; CONF
         w8(0x1801, 2, 255),
         w16(0x1801, 5, u32::from(timing.status_refresh_ms)),
         w32(0x1801, 1, cob(TPDO2)),
-        // Then the rated torque, compared.
+        // Then the mode the drive runs in and the rated torque, compared.
+        ConfigStep::CheckMode,
         ConfigStep::CheckRatedTorque,
     ]
 }
@@ -381,6 +429,22 @@ pub fn check_layout(buses: &[u8]) -> Result<(), LayoutError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod object_tests {
+    use super::*;
+
+    #[test]
+    fn the_object_table_is_the_configurations() {
+        for config in [
+            DriveConfig { bus: 0, node: 1, rated_torque: 0.64, torque_max: 2.5 },
+            DriveConfig { bus: 1, node: 127, rated_torque: 3.0, torque_max: 0.1 },
+        ] {
+            let objects = configuration(&config, &Timing::DEFAULT).map(ConfigStep::object);
+            assert_eq!(objects, CONFIG_OBJECTS);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -11,7 +11,9 @@ use canopen_rs::{Address, DataType, NodeId, Value};
 use cdpr_control::protocol::DriveFaultCause;
 
 use crate::cia402::{controlword, step_towards, DriveState, Target};
-use crate::config::{configuration, ConfigStep, DriveConfig, Timing, CONFIG_STEPS};
+use crate::config::{
+    configuration, ConfigStep, DriveConfig, Timing, CONFIG_OBJECTS, CONFIG_STEPS, TORQUE_MODE,
+};
 use crate::frame::{RawFrame, EMCY, HEARTBEAT, NMT, RPDO1, RPDO2, SDO_REQUEST, SDO_RESPONSE, TPDO1, TPDO2};
 
 /// Where a drive's start-up is.
@@ -120,6 +122,11 @@ pub struct Node {
     reached_operate: bool,
     fault_reset: bool,
     boots: u8,
+    /// The values the configuration's reads took: the mode display 0x6061
+    /// and the rated torque 0x6076 (a second answer that differs
+    /// contradicts them: [`Node::contradiction`]).
+    mode_read: Option<u32>,
+    rated_read: Option<u32>,
 }
 
 /// Boot-ups a drive may send while being configured before it counts as
@@ -155,6 +162,8 @@ impl Node {
             reached_operate: false,
             fault_reset: false,
             boots: 0,
+            mode_read: None,
+            rated_read: None,
         }
     }
 
@@ -255,10 +264,14 @@ impl Node {
                 self.state = Some(DriveState::of_statusword(sw));
                 Received::Used
             }
-            (SDO_RESPONSE, 8) if self.sdo_pending => {
+            (SDO_RESPONSE, 8) => {
                 let mut payload = [0u8; 8];
                 payload.copy_from_slice(data);
-                self.on_sdo_response(&payload, now)
+                if self.sdo_pending {
+                    self.on_sdo_response(&payload, now)
+                } else {
+                    self.on_other_answer(&payload)
+                }
             }
             (HEARTBEAT, 1) => {
                 self.on_heartbeat(data[0] & 0x7F, now);
@@ -301,25 +314,41 @@ impl Node {
     /// acknowledged (`canopen-rs`'s client does not compare the
     /// multiplexer, which CiA 301 puts in every answer, bytes 1-3).
     fn on_sdo_response(&mut self, payload: &[u8; 8], now: u32) -> Received {
-        let Stage::Configure(step) = self.stage else { return Received::Garbage };
-        let Some(asked) = self.config_step(step).map(ConfigStep::object) else { return Received::Garbage };
+        let Stage::Configure(step) = self.stage else { return self.on_other_answer(payload) };
+        let Some(&asked) = CONFIG_OBJECTS.get(usize::from(step)) else {
+            return self.on_other_answer(payload);
+        };
         if (u16::from_le_bytes([payload[1], payload[2]]), payload[3]) != asked {
-            return Received::Garbage;
+            return self.on_other_answer(payload);
         }
+        let current = self.config_step(step);
         let Some(client) = &mut self.sdo else { return Received::Garbage };
         self.sdo_pending = false;
         match client.on_response(payload) {
             SdoEvent::Complete(value) => {
-                if self.config_step(step) == Some(ConfigStep::CheckRatedTorque) {
+                if current == Some(ConfigStep::CheckRatedTorque) {
                     let expected = self.config.rated_torque * 1000.0;
                     let matches = match value {
                         Some(Value::Unsigned32(mnm)) => {
+                            self.rated_read = Some(mnm);
                             libm::fabsf(mnm as f32 - expected) <= 0.005 * expected
                         }
                         _ => false,
                     };
                     if !matches {
                         self.latch(DriveFaultCause::Configuration, 0x6076);
+                        return Received::Used;
+                    }
+                }
+                if current == Some(ConfigStep::CheckMode) {
+                    let mode = match value {
+                        Some(Value::Integer8(m)) => Some(m as u8),
+                        Some(Value::Unsigned8(m)) => Some(m),
+                        _ => None,
+                    };
+                    self.mode_read = mode.map(u32::from);
+                    if mode != Some(TORQUE_MODE) {
+                        self.latch(DriveFaultCause::Configuration, 0x6061);
                         return Received::Used;
                     }
                 }
@@ -332,6 +361,61 @@ impl Node {
             SdoEvent::Send(_) => self.latch(DriveFaultCause::Configuration, 0x0800_0000),
         }
         Received::Used
+    }
+
+    /// An answer that is not the pending request's: garbage, unless it
+    /// contradicts the configuration ([`Node::contradiction`]), which
+    /// then did not take: a configuration fault with the abort code (or
+    /// the object read).
+    fn on_other_answer(&mut self, payload: &[u8; 8]) -> Received {
+        match self.contradiction(payload) {
+            Some(code) => {
+                self.latch(DriveFaultCause::Configuration, code);
+                Received::Used
+            }
+            None => Received::Garbage,
+        }
+    }
+
+    /// Whether `payload`, an answer that completes no pending request,
+    /// says the configuration did not take: an abort of an object the
+    /// configuration has already written or read (the code), or a read's
+    /// answer with another value than the one taken (the object's index).
+    /// Each request has one answer: a second one that differs is the
+    /// drive's own, late behind a stranger's that completed the step (or
+    /// a second drive at this node id). A duplicate of what was taken is
+    /// not.
+    fn contradiction(&self, payload: &[u8; 8]) -> Option<u32> {
+        // An abort (0x80) or an expedited upload's answer with its size
+        // (0x43, 0x47, 0x4B, 0x4F for 4, 3, 2, 1 bytes); anything else
+        // (an acknowledgement) cannot contradict.
+        let abort = payload[0] == 0x80;
+        if !abort && payload[0] & 0xF3 != 0x43 {
+            return None;
+        }
+        let object = (u16::from_le_bytes([payload[1], payload[2]]), payload[3]);
+        let done = match self.stage {
+            Stage::WaitBoot => 0,
+            Stage::Configure(step) => usize::from(step),
+            Stage::Start | Stage::Operational => CONFIG_STEPS,
+        };
+        // One look-up in the table of the steps' objects.
+        CONFIG_OBJECTS.get(..done)?.iter().find(|&&o| o == object)?;
+        let word = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        if abort {
+            return Some(word(&payload[4..8]));
+        }
+        let bytes = 4 - usize::from((payload[0] >> 2) & 3);
+        let mut value = [0u8; 4];
+        value[..bytes].copy_from_slice(&payload[4..4 + bytes]);
+        let taken = match object {
+            (0x6061, 0) => self.mode_read,
+            (0x6076, 0) => self.rated_read,
+            // An upload's answer for a written object: not a read the
+            // configuration made.
+            _ => return None,
+        };
+        (taken != Some(word(&value))).then_some(u32::from(object.0))
     }
 
     fn enter(&mut self, stage: Stage, now: u32) {
@@ -423,6 +507,7 @@ impl Node {
                 };
                 client.write(Address::new(index, sub), v)
             }
+            ConfigStep::CheckMode => client.read(Address::new(0x6061, 0), DataType::Integer8),
             ConfigStep::CheckRatedTorque => client.read(Address::new(0x6076, 0), DataType::Unsigned32),
         };
         out.push(RawFrame::new(SDO_REQUEST + u16::from(self.config.node), &payload));

@@ -13,6 +13,25 @@ use canopen_drives::{CanDrivesError, DriveConfig, Timing};
 use cdpr_control::{WinchDrives, WinchReading, CABLES};
 use proptest::prelude::*;
 
+/// `cases` cases from a fixed seed, so that the test command checks the
+/// same ones on every run (`PROPTEST_RNG_SEED=<n>` explores others, and
+/// `CDPR_HOSTILE_SCALE=<k>` runs k times as many). From a random seed the
+/// start-up campaign below met its defect in about one run in seven of
+/// 96 cases; each found case is kept as a test of its own (`tests/layer.rs`).
+fn campaign_config(cases: u32) -> ProptestConfig {
+    let scale = std::env::var("CDPR_HOSTILE_SCALE").ok().and_then(|s| s.parse::<u32>().ok()).unwrap_or(1);
+    let rng_seed = match ProptestConfig::default().rng_seed {
+        proptest::test_runner::RngSeed::Random => proptest::test_runner::RngSeed::Fixed(20_261_207),
+        chosen => chosen,
+    };
+    ProptestConfig {
+        cases: cases.saturating_mul(scale.max(1)),
+        rng_seed,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
 static REACHED: AtomicU32 = AtomicU32::new(0);
 static FAULTED: AtomicU32 = AtomicU32::new(0);
 
@@ -94,12 +113,12 @@ fn campaign(bursts: Vec<Vec<(u16, Vec<u8>)>>) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-/// 64 cases of 10-20 cycles with up to 12 random frames each.
+/// 512 cases of 10-20 cycles with up to 12 random frames each.
 #[test]
 fn random_frames_change_nothing_off_the_drives_channels() {
-    let cases = 64;
-    let mut runner =
-        proptest::test_runner::TestRunner::new(ProptestConfig { cases, ..ProptestConfig::default() });
+    let config = campaign_config(512);
+    let cases = config.cases;
+    let mut runner = proptest::test_runner::TestRunner::new(config);
     let bursts = proptest::collection::vec(proptest::collection::vec(frame(), 0..12), 10..20);
     runner.run(&bursts, campaign).unwrap();
     let reached = REACHED.load(Ordering::Relaxed);
@@ -150,9 +169,9 @@ fn startup_frame() -> impl Strategy<Value = (u16, Vec<u8>)> {
 /// then dropped and it ran in its default mode.
 #[test]
 fn hostile_frames_at_start_up_never_start_a_drive_the_board_did_not_configure() {
-    let cases = 96;
-    let mut runner =
-        proptest::test_runner::TestRunner::new(ProptestConfig { cases, ..ProptestConfig::default() });
+    let config = campaign_config(2000);
+    let cases = config.cases;
+    let mut runner = proptest::test_runner::TestRunner::new(config);
     let bursts = proptest::collection::vec(proptest::collection::vec(startup_frame(), 0..4), 5..40);
     runner
         .run(&(bursts, any::<bool>()), |(bursts, refuses)| {

@@ -258,6 +258,89 @@ fn sdo_timeouts_and_aborts_are_configuration_faults() {
     assert_ne!(b.rig.drive(4).nmt(), Nmt::Operational, "never started");
 }
 
+/// An answer that completes the pending request before the drive's own
+/// (a stranger on drive 1's SDO channel, or a second drive at its node
+/// id) no longer starts a drive the board did not configure: found by the
+/// hostile start-up campaign (`tests/hostile.rs`) from a random seed, one
+/// run in about seven: an acknowledgement of 0x6060 at cycle 4 completed
+/// the torque mode's write, the drive's abort then arrived for a step
+/// already done and was dropped, and drive 1 came up in mode 0. Now the
+/// drive's second, contradicting answer (an abort of an object already
+/// written, a read with another value than the one taken) faults it,
+/// with its code; and the configuration reads back the mode the drive
+/// runs in (0x6061), which catches a drive that acknowledges the mode
+/// and stays in its own. Duplicates of what was taken change nothing.
+#[test]
+fn a_strangers_answer_ahead_of_the_drives_own_never_starts_a_misconfigured_drive() {
+    // A download acknowledgement of (index, sub), sent to the board from
+    // drive 1's node every cycle of the start-up, ahead of the drive's
+    // own answers.
+    let forged_ack = |index: u16, sub: u8| {
+        let [i0, i1] = index.to_le_bytes();
+        [0x60, i0, i1, sub, 0, 0, 0, 0]
+    };
+    // An expedited upload's answer of `bytes` bytes (0x4F: 1, 0x43: 4).
+    let forged_upload = |index: u16, value: u32, bytes: u8| {
+        let [i0, i1] = index.to_le_bytes();
+        let [v0, v1, v2, v3] = value.to_le_bytes();
+        [0x43 | ((4 - bytes) << 2), i0, i1, 0, v0, v1, v2, v3]
+    };
+    let run = |b: &mut Bench, forged: [u8; 8]| {
+        let inject = b.layer.ports().0.inject.clone();
+        for _ in 0..300 {
+            inject.borrow_mut().push_back(SimFrame::standard(0x581, &forged).unwrap());
+            let _ = b.cycle();
+        }
+        (b.layer.node(0).unwrap().ready(), b.layer.node(0).unwrap().fault())
+    };
+    let configuration = |code| Some((DriveFaultCause::Configuration, code));
+    let mut cases = 0;
+    // The torque mode refused, its acknowledgement forged: the abort
+    // that follows faults the drive (it came up in mode 0).
+    let mut b = Bench::new();
+    b.rig.drive(0).faults.no_torque_mode = true;
+    assert_eq!(run(&mut b, forged_ack(0x6060, 0)), (false, configuration(0x0609_0030)));
+    assert_eq!(b.rig.drive(0).mode(), 0);
+    cases += 1;
+    // The max torque (the drive's own torque limit) refused, likewise.
+    let mut b = Bench::new();
+    b.rig.drive(0).faults.refuse_write = Some((0x6072, 0));
+    assert_eq!(run(&mut b, forged_ack(0x6072, 0)), (false, configuration(0x0609_0030)));
+    cases += 1;
+    // The RPDO timeout (a drive that hears no board quick stops) refused.
+    let mut b = Bench::new();
+    b.rig.drive(0).faults.refuse_write = Some((0x1400, 5));
+    assert_eq!(run(&mut b, forged_ack(0x1400, 5)), (false, configuration(0x0609_0030)));
+    cases += 1;
+    // The rated torque read: a stranger's right value ahead of the
+    // drive's other one (a motor of twice the torque).
+    let mut rated = [640u32; CABLES];
+    rated[0] = 1280;
+    let mut b = Bench::with(Some(rated));
+    assert_eq!(run(&mut b, forged_upload(0x6076, 640, 4)), (false, configuration(0x6076)));
+    cases += 1;
+    // A drive that acknowledges the torque mode and stays in its own: the
+    // mode read back.
+    let mut b = Bench::new();
+    b.rig.drive(0).faults.mode_unapplied = true;
+    assert_eq!(run(&mut b, [0; 8]), (false, configuration(0x6061)));
+    cases += 1;
+    // Duplicates of the drive's own answers: it comes up, configured.
+    for forged in [
+        forged_ack(0x6060, 0),
+        forged_ack(0x6072, 0),
+        forged_upload(0x6076, 640, 4),
+        forged_upload(0x6061, 10, 1),
+    ] {
+        let mut b = Bench::new();
+        assert_eq!(run(&mut b, forged), (true, None), "{forged:?}");
+        assert_eq!(b.rig.drive(0).mode(), 10);
+        assert_eq!(b.rig.drive(0).max_torque(), configs()[0].max_torque_permille());
+        cases += 1;
+    }
+    assert_eq!(cases, 9);
+}
+
 #[test]
 fn an_emcy_mid_operation_faults_and_a_fault_reset_brings_the_drive_back() {
     let mut b = Bench::operating();

@@ -47,6 +47,12 @@ pub struct SimDriveFaults {
     pub no_heartbeat: bool,
     /// Refuses mode of operation 10 (a drive without torque mode).
     pub no_torque_mode: bool,
+    /// Acknowledges mode of operation 10 but stays in its mode (a drive
+    /// whose firmware does not apply it).
+    pub mode_unapplied: bool,
+    /// Aborts every write to this object (index, sub-index) with 0x0609_0030
+    /// (value range exceeded).
+    pub refuse_write: Option<(u16, u8)>,
     /// Ignores the controlword (stays where it is).
     pub stuck_state: bool,
 }
@@ -532,6 +538,9 @@ impl SimDrive {
 
     fn write(&mut self, index: u16, sub: u8, value: u32, size: usize) -> Result<(), u32> {
         let need = |s: usize| if size == s { Ok(()) } else { Err(0x0607_0010) };
+        if self.faults.refuse_write == Some((index, sub)) {
+            return Err(0x0609_0030);
+        }
         match (index, sub) {
             (0x1017, 0) => need(2).map(|()| self.heartbeat_ms = value as u16),
             (0x6007, 0) => need(2).map(|()| self.abort_option = value as u16),
@@ -540,7 +549,9 @@ impl SimDrive {
                 if value != 10 || self.faults.no_torque_mode {
                     return Err(0x0609_0030);
                 }
-                self.mode = value as u8;
+                if !self.faults.mode_unapplied {
+                    self.mode = value as u8;
+                }
                 Ok(())
             }
             (0x6072, 0) => need(2).map(|()| self.max_torque = value as u16),
