@@ -201,6 +201,13 @@ const MIN_CYCLES: u32 = 2_000;
 const RUN_TIMEOUT: Duration = Duration::from_secs(300);
 /// Limit on the worst stack depth the demo measures (stack painting), bytes.
 pub(crate) const STACK_LIMIT: u32 = 16 * 1024;
+/// Regression ceiling on the demo builds' stack depth, bytes, a little
+/// over what they reach (13 612 in session 39, start-up's frame the
+/// deepest): an inlining change there once cost 5 KB unseen (the product
+/// reached 16 248 of the limit).
+pub(crate) const STACK_CEILING: u32 = 14_000;
+/// The same for the product's (its log's marks: 13 928 in session 39).
+pub(crate) const PRODUCT_STACK_CEILING: u32 = 14_300;
 /// The chip's flash and RAM (STM32F405: 1 MiB flash; `memory.x` gives the
 /// firmware 112 KiB of the 128 KiB main SRAM).
 const FLASH_BYTES: u64 = 1024 * 1024;
@@ -354,7 +361,7 @@ const DEMO_CHECKS: [&str; 7] = [
     "out-of-workspace poses give infeasible",
     "timer ticks convert to instructions",
     "safety states on the demo: enabled, holding, fault, disabled, enabled",
-    "worst stack depth within the limit (stack painting)",
+    "worst stack depth within its regression ceiling and the limit (stack painting)",
     "every method's measured worst solve, and the step without it, within the board's table (cdpr_demo::methods)",
     "receive work under a flood bounded (the interrupt a byte, the step a cycle)",
 ];
@@ -421,9 +428,15 @@ fn judge_report(r: &Report, code: Option<i32>, ceiling: u32) -> [Result<String, 
     } else {
         Err(format!("{:?} (expected {EXPECTED_STATES:?})", r.states()))
     };
-    let stack = format!("{} bytes used of {}, limit {STACK_LIMIT}", r.stack_used, r.stack_size);
-    let stack =
-        if r.stack_used <= STACK_LIMIT && r.stack_used < r.stack_size { Ok(stack) } else { Err(stack) };
+    let stack = format!(
+        "{} bytes used of {}, regression ceiling {STACK_CEILING}, limit {STACK_LIMIT}",
+        r.stack_used, r.stack_size
+    );
+    let stack = if r.stack_used <= STACK_CEILING.min(STACK_LIMIT) && r.stack_used < r.stack_size {
+        Ok(stack)
+    } else {
+        Err(stack)
+    };
     let receive = format!(
         "worst {} instructions for a cycle's {} frames of 0x00, 0xFF, random bytes or valid setpoints in the step (regression ceiling {RECEIVE_CEILING}; limit {RECEIVE_LIMIT}: with a step at the {BUDGET} budget, 3/4 of the {PERIOD_INSTRUCTIONS}-instruction period); the receive interrupt's framing at most {} a byte (limit {FRAMING_LIMIT})",
         r.receive_worst,
@@ -813,6 +826,8 @@ mod tests {
         assert!(judge_layer_in_step(&run(late, 0), BUDGET).is_err());
         let deep = Report { stack_used: STACK_LIMIT + 4, ..layer };
         assert!(judge_layer_in_step(&run(deep, 0), BUDGET).is_err());
+        let deeper = Report { stack_used: STACK_CEILING + 4, ..layer };
+        assert!(judge_layer_in_step(&run(deeper, 0), BUDGET).is_err());
         assert!(judge_layer_in_step(&run(layer, 33), BUDGET).is_err());
         // The step without its solve: over the stated rest, or not measured.
         let rest = Report { rest_worst: methods::STEP_REST, ..layer };
