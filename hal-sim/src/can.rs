@@ -69,10 +69,10 @@ impl CanWinches {
         if file.cables.len() != CABLES {
             return Err(format!("{} cables, the board has {CABLES}", file.cables.len()));
         }
-        let buses: Vec<u8> = file.drives.buses.iter().map(|b| b.wrapping_sub(1)).collect();
+        let buses = file.drives.bus_indices();
         canopen_drives::check_layout(&buses).map_err(|e| format!("[winch] can_bus: {e}"))?;
         let configs: [DriveConfig; CABLES] = core::array::from_fn(|i| DriveConfig {
-            bus: file.drives.buses[i] - 1,
+            bus: buses[i],
             node: file.drives.node_ids[i],
             rated_torque: rated as f32,
             torque_max: winch[3] as f32,

@@ -203,6 +203,12 @@ impl Scenario {
         }
     }
 
+    /// [`Self::base`] with its event at `event` s (what the run reports
+    /// before and after).
+    fn at_event(site: &Site, name: &str, description: &str, duration: f64, path: Path, event: f64) -> Self {
+        Self { event: Some(event), ..Self::base(site, name, description, duration, path) }
+    }
+
     /// The scheme's name suffix: `""` (task space) or [`JOINT_SUFFIX`].
     pub fn suffix(scheme: Scheme) -> &'static str {
         if scheme == Scheme::JointSpace {
@@ -260,85 +266,83 @@ impl Scenario {
         out.push(Self::base(site, "track", "one 8 s loop through the workspace and back", 8.5, track));
 
         let event = 1.0;
-        let mut s = Self::base(
+        let mut s = Self::at_event(
             site,
             "cable-break",
             "cable 1 breaks at 1 s while holding",
             2.0,
             Path::Hold(fault_pose),
+            event,
         );
         s.faults.cable_break = Some((0, event));
-        s.event = Some(event);
         out.push(s);
 
         // 0.03 N m on suspended-8's winches, less than holding takes.
         let derated = 0.03 * site.motor_scale;
-        let mut s = Self::base(
+        let mut s = Self::at_event(
             site,
             "winch-saturation",
             &format!("at 1 s drive 3 can deliver only {} N m and reports its current limit", shown(derated)),
             2.0,
             Path::Hold(fault_pose),
+            event,
         );
         s.faults.derate = Some(Derate { cable: 2, at: event, torque: derated, report: true });
-        s.event = Some(event);
         out.push(s);
 
         let (to, what) = &site.infeasible;
-        let mut s = Self::base(
+        out.push(Self::at_event(
             site,
             "infeasible-setpoint",
             &format!("at 1 s the setpoint jumps to {what}: rejected as a jump"),
             2.0,
             Path::Jump { from: fault_pose, to: *to, at: event },
-        );
-        s.event = Some(event);
-        out.push(s);
+            event,
+        ));
 
         let (to, what) = &site.out_of_range;
-        let mut s = Self::base(
+        out.push(Self::at_event(
             site,
             "out-of-range-setpoint",
             &format!("at 1 s the setpoint jumps {what}"),
             2.0,
             Path::Jump { from: fault_pose, to: *to, at: event },
-        );
-        s.event = Some(event);
-        out.push(s);
+            event,
+        ));
 
-        let mut s = Self::base(
+        let mut s = Self::at_event(
             site,
             "lost-stream",
             "the host stops streaming at 1 s while holding",
             2.0,
             Path::Hold(fault_pose),
+            event,
         );
         s.stream_until = Some(event);
-        s.event = Some(event);
         out.push(s);
 
         let stop = 3.0;
-        let mut s = Self::base(
+        let mut s = Self::at_event(
             site,
             "lost-stream-moving",
             &format!("the host stops streaming at 3 s, {}", site.motion.0),
             4.0,
             track,
+            stop,
         );
         s.stream_until = Some(stop);
-        s.event = Some(stop);
         out.push(s);
 
         let stuck = 2.0;
-        let mut s = Self::base(
+        let mut s = Self::at_event(
             site,
             "encoder-stuck",
             &format!("encoder 1 stops counting at 2 s, {}", site.motion.1),
             3.0,
             track,
+            stuck,
         );
         s.faults.encoder_stuck = Some((0, stuck));
-        s.event = Some(stuck);
         out.push(s);
 
         // On the CAN buses (`Config::can`), mid-loop like `encoder-stuck`.
@@ -355,9 +359,8 @@ impl Scenario {
             ),
             ("can-bus-off", "CAN2 goes bus-off at the board at 2 s, mid-loop", CanFault::BusOff { bus: 1 }),
         ] {
-            let mut s = Self::base(site, name, description, 3.0, track);
+            let mut s = Self::at_event(site, name, description, 3.0, track, stuck);
             s.can_fault = Some(fault);
-            s.event = Some(stuck);
             out.push(s);
         }
 
@@ -381,15 +384,15 @@ impl Scenario {
         s.start_error = [0.0, 0.0, 0.0, 0.0, 0.0, 0.1];
         out.push(s);
 
-        let mut s = Self::base(
+        let mut s = Self::at_event(
             site,
             "drive-unreadable",
             "from 1 s drive 5 cannot be read, while holding",
             2.0,
             Path::Hold(fault_pose),
+            event,
         );
         s.faults.unreadable = Some((4, event));
-        s.event = Some(event);
         out.push(s);
         out
     }
@@ -676,22 +679,17 @@ pub fn load_controller_robot(path: &std::path::Path) -> Result<ControlRobot, Str
 }
 
 /// The robot file's encoders: the control loop's scale and the plant's
-/// counting; refused when their counts cannot count the longest cable of
-/// the setpoint range (as the board refuses them: `ControlLoop::set_encoder`).
+/// counting (whether they count the robot's cables is the control loop's
+/// check, `ControlLoop::set_encoder`, as on the board).
 pub(crate) fn encoders_of(
     file: &robot_file::RobotFile,
     path: &std::path::Path,
 ) -> Result<(EncoderScale, [i8; CABLES], u32), String> {
     let winch = file.winch.ok_or_else(|| format!("{}: no [winch]", path.display()))?;
-    let mut signs = [1i8; CABLES];
-    for (s, &f) in signs.iter_mut().zip(&file.encoder.signs) {
-        *s = f;
-    }
+    let signs = <[i8; CABLES]>::try_from(file.encoder.signs.as_slice())
+        .map_err(|_| format!("{}: [winch] encoder_sign: not one per cable of {CABLES}", path.display()))?;
     let cpr = file.encoder.counts_per_revolution;
-    let robot: ControlRobot = robot_of(file, path)?;
-    let longest = SetpointRange::for_robot(&robot).longest_cable(&robot);
     let scale = EncoderScale::new(winch[0] as f32, winch[1] as f32, cpr, signs)
-        .and_then(|scale| scale.check_reach(longest).map(|()| scale))
         .map_err(|e| format!("{}: [winch]: {e}", path.display()))?;
     Ok((scale, signs, cpr))
 }

@@ -125,7 +125,14 @@ impl Site {
         let parsed = robot_file::RobotFile::load(file).map_err(|e| format!("{shown}: {e}"))?;
         let robot: Robot68 =
             parsed.to_robot().map_err(|e| format!("{shown}: {e} (hal-sim simulates 6 DOF x 8 cables)"))?;
-        crate::scenario::encoders_of(&parsed, file)?;
+        // The board's range, from the robot in its f32; its encoders count
+        // the range's longest cable (the control loop's check, made here
+        // so that no scenario starts).
+        let robot32 =
+            parsed.to_robot::<f32, 6, 8>().map_err(|e| format!("{shown}: {e} (in the board's f32)"))?;
+        let range = SetpointRange::for_robot(&robot32);
+        let (scale, _, _) = crate::scenario::encoders_of(&parsed, file)?;
+        scale.check_reach(range.longest_cable(&robot32)).map_err(|e| format!("{shown}: [winch]: {e}"))?;
         let derivation = derive_loop(&robot).map_err(|e| format!("{shown}: {e}"))?;
         let p = derivation.params;
         let centre = [f64::from(p.centre[0]), f64::from(p.centre[1]), f64::from(p.centre[2]), 0.0, 0.0, 0.0];
@@ -163,10 +170,6 @@ impl Site {
         let mut base = centre;
         base[2] -= loop_amplitudes[2];
         let track = Path::Loop { base, start: 0.2, period: 8.0, amplitudes: loop_amplitudes };
-        // The board's range, from the robot in its f32.
-        let range = SetpointRange::for_robot(
-            &parsed.to_robot::<f32, 6, 8>().map_err(|e| format!("{shown}: {e} (in the board's f32)"))?,
-        );
         let infeasible = infeasible_target(&robot, &range, &fault_pose)
             .ok_or_else(|| format!("{shown}: no pose along x, y or z from the fault pose, inside the setpoint range, lacks static tensions"))?;
         let mut out = fault_pose;

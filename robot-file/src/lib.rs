@@ -252,6 +252,12 @@ impl DriveSpec {
     /// Drives two CAN buses address: node ids 1..=127 on each.
     pub const MAX_DRIVES: usize = 2 * 127;
 
+    /// Each cable's bus as the board's CAN layer numbers them, from 0
+    /// (CAN1 is 0).
+    pub fn bus_indices(&self) -> Vec<u8> {
+        self.buses.iter().map(|b| b.saturating_sub(1)).collect()
+    }
+
     /// The default split of `cables` drives: the first half (rounded up) on
     /// CAN1 with node ids 1, 2, ..., the rest on CAN2 with node ids 1, 2,
     /// ...; `None` for more than [`Self::MAX_DRIVES`] (a bus would need an
@@ -851,6 +857,8 @@ attach = [0.0, 0.0, 0.0]
             default,
             DriveSpec { rated_torque: None, node_ids: vec![1, 2, 1], buses: vec![1, 1, 2], explicit: false }
         );
+        // The board's CAN layer counts its buses from 0.
+        assert_eq!(default.bus_indices(), vec![0, 0, 1]);
         assert_eq!(
             DriveSpec::default_split(8),
             Some((vec![1, 2, 3, 4, 1, 2, 3, 4], vec![1, 1, 1, 1, 2, 2, 2, 2]))
