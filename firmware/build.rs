@@ -73,7 +73,11 @@ fn generate(path: &Path) -> Result<String, String> {
         .to_robot::<f64, DOF, CABLES>()
         .map_err(|e| format!("{e} (the firmware runs {DOF} DOF x {CABLES} cables)"))?;
     let winch = file.winch.ok_or("no [winch]: the firmware commands motor torques")?;
-    check_encoders(&file, winch)?;
+    let board_robot =
+        file.to_robot::<f32, DOF, CABLES>().map_err(|e| format!("{e} (in f32, as on the board)"))?;
+    check_encoders(&file, &board_robot, winch)?;
+    // The control loop refuses tension limits its winches cannot pull.
+    cdpr_control::controller::check_winch_reach(&board_robot).map_err(|e| format!("[winch]: {e}"))?;
     // The CAN drives' builds (not the direct path's).
     if env::var_os("CARGO_FEATURE_DIRECT").is_none() {
         canopen_drives::check_layout(&file.drives.bus_indices())
@@ -193,13 +197,16 @@ fn generate(path: &Path) -> Result<String, String> {
 /// The board's encoders count every cable the setpoint range allows
 /// (`cdpr_control::encoder::EncoderScale::check_reach`, which the firmware
 /// repeats at start-up), in `f32` as the board does.
-fn check_encoders(file: &RobotFile, winch: [f64; 4]) -> Result<(), String> {
+fn check_encoders(
+    file: &RobotFile,
+    robot: &cdpr_control::ControlRobot,
+    winch: [f64; 4],
+) -> Result<(), String> {
     use cdpr_control::encoder::EncoderScale;
     use cdpr_control::link::SetpointRange;
-    let robot = file.to_robot::<f32, DOF, CABLES>().map_err(|e| format!("{e} (in f32, as on the board)"))?;
     let signs = <[i8; CABLES]>::try_from(file.encoder.signs.as_slice())
         .map_err(|_| format!("[winch] encoder_sign: not one per cable of {CABLES}"))?;
-    let longest = SetpointRange::for_robot(&robot).longest_cable(&robot);
+    let longest = SetpointRange::for_robot(robot).longest_cable(robot);
     EncoderScale::new(winch[0] as f32, winch[1] as f32, file.encoder.counts_per_revolution, signs)
         .and_then(|scale| scale.check_reach(longest))
         .map_err(|e| format!("[winch]: {e}"))

@@ -333,7 +333,9 @@ impl ControlLoop {
     /// feed-forward only; the encoders are the robot file's defaults for
     /// the robot's winch (4096 counts per revolution, every sign +1:
     /// [`ControlLoop::set_encoder`] sets the file's; `InvalidLimits` for a
-    /// robot whose longest cable they cannot count), the estimator's
+    /// robot whose longest cable they cannot count, and for one whose
+    /// winches cannot pull its `t_max`,
+    /// [`crate::controller::check_winch_reach`]), the estimator's
     /// [`EstimatorSettings::DEFAULT`], the tracking limit
     /// [`DEFAULT_TRACKING_LIMIT`], and both feedback schemes' gains the
     /// triple pole at [`DEFAULT_OMEGA`] (the joint-space gains at the
@@ -350,6 +352,9 @@ impl ControlLoop {
         limits: SafetyLimits,
     ) -> Result<Self, Error> {
         let winch = *robot.winch().ok_or(Error::UnsupportedShape)?;
+        // Tensions within the limits that the motors cannot pull: the
+        // robot file's contradiction, named by `check_winch_reach`.
+        crate::controller::check_winch_reach(&robot).map_err(|_| Error::InvalidLimits)?;
         let scale = EncoderScale::with_defaults(winch.drum_radius, winch.gear_ratio)
             .and_then(|scale| scale.check_reach(range.longest_cable(&robot)).map(|()| scale))
             .map_err(|_| Error::InvalidLimits)?;

@@ -184,6 +184,75 @@ pub struct FrictionCompensation {
     pub viscous: f32,
 }
 
+/// A cable whose winch cannot pull its upper tension limit: `t_max`
+/// needs `torque` at the motor (conventions:
+/// `tau = t r / (G eta)`), more than the winch's `torque_max`. The control
+/// loop's tensions stay within `t_min..t_max`; such a winch would have
+/// its torque cut below them, and the platform pulled off its setpoint,
+/// whenever a solution came near `t_max`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WinchReachError {
+    /// The cable, 0-based.
+    pub cable: usize,
+    /// Its upper tension limit, N.
+    pub t_max: f32,
+    /// The motor torque `t_max` needs, N m (infinite if it overflows).
+    pub torque: f32,
+    /// The winch's largest motor torque, N m.
+    pub torque_max: f32,
+    /// The largest tension the winch pulls, `torque_max G eta / r`, N,
+    /// rounded down a little so that it passes this check.
+    pub tension_max: f32,
+}
+
+impl core::fmt::Display for WinchReachError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "cable {}: t_max = {} N needs {:.4} N m at the motor (t r / (G eta)), over the winch's torque_max \
+             = {} N m: its winch pulls at most {:.3} N; t_max must be at most that (or torque_max larger)",
+            self.cable + 1,
+            self.t_max,
+            self.torque,
+            self.torque_max,
+            self.tension_max
+        )
+    }
+}
+
+/// Whether every cable's winch pulls the cable's `t_max` without its
+/// torque being limited ([`tension_core::Winch::motor_torque`], the
+/// board's own arithmetic): the first cable that it does not, otherwise.
+/// A robot without a winch has nothing to check. `ControlLoop::new`
+/// refuses such a robot (`InvalidLimits`). Out of line: inlined into the
+/// firmware's start-up it grew that frame (12 928 -> 14 528 bytes, as
+/// `ControlLoop::reaches` had). Friction compensation
+/// ([`FrictionCompensation`]) and the joint-space feedback's torque come
+/// on top and are reported as saturation when they reach the limit.
+#[inline(never)]
+pub fn check_winch_reach<const M: usize>(robot: &Robot<f32, DOF, M>) -> Result<(), WinchReachError> {
+    let Some(winch) = robot.winch() else {
+        return Ok(());
+    };
+    for (cable, &t_max) in robot.limits().max().iter().enumerate() {
+        let torque = match winch.motor_torque(t_max) {
+            Ok(t) if !t.saturated => continue,
+            // `Robot` holds finite limits; an overflow is out of reach.
+            Ok(_) | Err(_) => t_max * winch.drum_radius / (winch.gear_ratio * winch.efficiency),
+        };
+        let exact = f64::from(winch.torque_max) * f64::from(winch.gear_ratio) * f64::from(winch.efficiency)
+            / f64::from(winch.drum_radius);
+        return Err(WinchReachError {
+            cable,
+            t_max,
+            torque: if torque.is_finite() { torque } else { f32::INFINITY },
+            torque_max: winch.torque_max,
+            tension_max: (exact * (1.0 - 1e-6)) as f32,
+        });
+    }
+    Ok(())
+}
+
 /// A setpoint's kinematics with their `W` factored by
 /// [`Controller::prepare`] (or the error that stopped it), for
 /// [`Controller::finish`]: made only there, used once, so the

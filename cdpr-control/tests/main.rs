@@ -18,3 +18,4 @@ mod saturation;
 mod setpoint_fields;
 mod setpoint_range;
 mod step_into;
+mod winch_reach;

@@ -74,16 +74,23 @@ fn robot_lists_its_own_scenarios_or_says_why_not() {
         text.replace("torque_max = 2.5", "torque_max = 2.5\ncounts_per_revolution = 2147483648"),
     )
     .unwrap();
+    // suspended-8 with winches that pull 21.6 N against t_max = 350 N (it
+    // ran, the solver asked up to 37 N, and the platform went 197 mm off
+    // its loop before a tracking fault).
+    let weak = std::env::temp_dir().join(format!("hal-sim-cli-{}-weak-winch.toml", std::process::id()));
+    std::fs::write(&weak, text.replace("torque_max = 2.5", "torque_max = 0.12")).unwrap();
     for (robot, expected) in [
         (concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/planar3-5.toml"), "6 DOF x 8 cables"),
         ("no/such/robot.toml", "no/such/robot.toml"),
         (fine.to_str().unwrap(), "counts_per_revolution must be at most 9362"),
+        (weak.to_str().unwrap(), "cable 1: t_max = 350 N needs 1.9444 N m at the motor"),
     ] {
         let (code, stdout, stderr) = run(&["--list", "--robot", robot]);
         assert_eq!(code, 2, "{robot}: {stderr}");
         assert!(stdout.is_empty() && stderr.contains(expected), "{robot}: {stderr}");
     }
     let _ = std::fs::remove_file(&fine);
+    let _ = std::fs::remove_file(&weak);
 }
 
 /// A robot file with all eight drives on CAN1 (it was taken, and the CAN
