@@ -55,13 +55,26 @@ impl SetpointRange {
     pub const MARGIN: f32 = 0.5;
 
     /// The range for `robot`: positions within the box spanned by the
-    /// anchors and the base frame's origin (the floor under a suspended
-    /// robot), widened by [`SetpointRange::MARGIN`]; Euler angles within
-    /// 1 rad; speeds and accelerations a winch of the firmware's size can
-    /// follow (5 m/s, 10 rad/s, 50 m/s^2, 100 rad/s^2).
+    /// anchors, stretched to the base frame's origin along the axes gravity
+    /// acts on (the floor under a suspended robot), widened by
+    /// [`SetpointRange::MARGIN`]; Euler angles within 1 rad; speeds and
+    /// accelerations a winch of the firmware's size can follow (5 m/s,
+    /// 10 rad/s, 50 m/s^2, 100 rad/s^2). Across gravity the platform stays
+    /// within the anchors' extent (a cable pulls it towards its anchor), so
+    /// the origin's place there does not matter: a robot file whose frame
+    /// lies 50 m beside the robot gave a 50 m wide range, and a demo
+    /// derived on it whose centre was 0.6 m off.
     pub fn for_robot<const N: usize, const M: usize>(robot: &Robot<f32, N, M>) -> Self {
-        let mut position_min = [0.0f32; 3];
-        let mut position_max = [0.0f32; 3];
+        let gravity = robot.platform().gravity;
+        let first = robot.anchors().first().map_or([0.0f32; 3], |a| [a[0], a[1], a[2]]);
+        let mut position_min = first;
+        let mut position_max = first;
+        for k in 0..3 {
+            if gravity[k] != 0.0 {
+                position_min[k] = position_min[k].min(0.0);
+                position_max[k] = position_max[k].max(0.0);
+            }
+        }
         for anchor in robot.anchors() {
             for (k, &a) in anchor.iter().enumerate() {
                 position_min[k] = position_min[k].min(a);

@@ -22,6 +22,38 @@ fn setpoint_range_of_suspended8() {
     assert_eq!(common::setpoint_range(), expected);
 }
 
+/// suspended-8 with its anchors moved by `shift` and gravity `gravity`.
+fn moved(shift: [f32; 3], gravity: [f32; 3]) -> cdpr_control::ControlRobot {
+    use tension_core::nalgebra::Vector3;
+    let base = common::suspended8();
+    let anchors = base.anchors().map(|a| a + Vector3::from(shift));
+    let mut platform = *base.platform();
+    platform.gravity = Vector3::from(gravity);
+    tension_core::Robot::new(base.kind(), anchors, *base.attachments(), *base.limits(), platform, base.winch().copied())
+        .unwrap()
+}
+
+/// Across gravity the range is the anchors' box wherever the base origin
+/// is (a frame 50 m and 30 m beside the robot gave a range 52 m wide);
+/// along gravity it reaches to the origin, the floor (IPAnema 1's and
+/// suspended-8's ranges are the same as before: above).
+#[test]
+fn across_gravity_the_origin_does_not_widen_the_range() {
+    let g = [0.0, 0.0, -9.81];
+    let r = SetpointRange::for_robot(&moved([50.0, 30.0, 0.0], g));
+    assert_eq!((r.position_min, r.position_max), ([47.5, 28.0, -0.5], [52.5, 32.0, 4.0]));
+    // Gravity along -y (a robot on a wall): the origin counts along y only.
+    let r = SetpointRange::for_robot(&moved([50.0, 30.0, 0.0], [0.0, -9.81, 0.0]));
+    assert_eq!((r.position_min, r.position_max), ([47.5, -0.5, 3.0], [52.5, 32.0, 4.0]));
+    // No gravity: the anchors' box alone.
+    let r = SetpointRange::for_robot(&moved([50.0, 30.0, 0.0], [0.0; 3]));
+    assert_eq!((r.position_min, r.position_max), ([47.5, 28.0, 3.0], [52.5, 32.0, 4.0]));
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../robots/ipanema1.toml");
+    let ipanema1 = robot_file::RobotFile::load(path).unwrap().to_robot::<f32, 6, 8>().unwrap();
+    let r = SetpointRange::for_robot(&ipanema1);
+    assert_eq!((r.position_min, r.position_max), ([-2.5, -2.0, -0.5], [2.5, 2.0, 2.5]));
+}
+
 /// The check as written in comparisons: finite and `lo <= v <= hi`.
 fn reference(r: &SetpointRange, s: &Setpoint) -> bool {
     let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
