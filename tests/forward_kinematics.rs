@@ -55,8 +55,8 @@ fn back<T: Real, const K: usize>(v: &SVector<T, K>) -> SVector<f64, K> {
     v.map(|x| x.to_subset().expect("real"))
 }
 
-/// The robot's size as the settings document it (largest anchor or
-/// attachment coordinate, or side of the anchors' box).
+/// The magnitude of the robot's coordinates, what rounding scales with
+/// (largest anchor or attachment coordinate, or side of the anchors' box).
 fn size<T: Real, const N: usize, const M: usize>(robot: &Robot<T, N, M>) -> f64 {
     let (mut lo, mut hi) = (to64(&robot.anchors()[0]), to64(&robot.anchors()[0]));
     let mut s: f64 = 0.0;
@@ -815,4 +815,71 @@ fn a_stretched_or_slack_cable_is_never_a_pose() {
     assert_eq!(failure.error, ForwardError::InconsistentLengths);
     let closest = failure.closest.unwrap();
     assert!(closest.worst > 0.1 && closest.worst < 0.5, "{:?}", closest.worst);
+}
+
+/// Where the base frame lies changes no verdict: suspended-8 and IPAnema 1
+/// with their anchors moved 50 m and 30 m across gravity, one cable
+/// slipped by 0.5 to 20 mm, warm and cold, give the same verdict (`f64`)
+/// and, where consistent, the same pose moved. The consistency threshold
+/// was 2.5e-4 of the largest coordinate, so 13 mm there against 1 mm: a
+/// 5 mm slip was a pose beside the robot and a slip at home.
+#[test]
+fn the_base_frames_place_changes_no_verdict() {
+    let shift = Vector3::new(50.0, 30.0, 0.0);
+    let (mut compared, mut inconsistent) = (0, 0);
+    for name in ["suspended-8", "ipanema1"] {
+        let robot: Robot<f64, 6, 8> = shipped_robot(name);
+        let moved = Robot::<f64, 6, 8>::new(
+            robot.kind(),
+            robot.anchors().map(|a| a + shift),
+            *robot.attachments(),
+            *robot.limits(),
+            *robot.platform(),
+            robot.winch().copied(),
+        )
+        .unwrap();
+        let (s, m) = (ForwardSettings::for_robot(&robot), ForwardSettings::for_robot(&moved));
+        assert_eq!(s.consistency, m.consistency, "{name}");
+        assert_eq!(s.consistency, 1e-3, "{name}: 2.5e-4 of its 4 m");
+        for u in [[0.5, 0.5, 0.5], [0.2, 0.7, 0.4]] {
+            let truth = pose_in(&robot, 0.15, u, [0.05, -0.05, 0.1]);
+            let mut truth_moved = truth;
+            for k in 0..3 {
+                truth_moved[k] += shift[k];
+            }
+            for cable in 0..8 {
+                for delta in [5e-4, 2e-3, 5e-3, 2e-2, -5e-3] {
+                    let mut l = lengths_of(&robot, &truth);
+                    l[cable] += delta;
+                    let mut lm = lengths_of(&moved, &truth_moved);
+                    lm[cable] += delta;
+                    for warm in [true, false] {
+                        let a = robot.forward_kinematics(&l, warm.then_some(&truth), &s);
+                        let b = moved.forward_kinematics(&lm, warm.then_some(&truth_moved), &m);
+                        match (a, b) {
+                            (Ok(a), Ok(b)) => {
+                                let mut back = b.pose;
+                                for k in 0..3 {
+                                    back[k] -= shift[k];
+                                }
+                                assert!(pose_error(RobotKind::Spatial6, &a.pose, &back) < 1e-9, "{name}");
+                            }
+                            (Err(a), Err(b)) => {
+                                assert_eq!(a, b, "{name}: cable {cable} {delta:+}");
+                                inconsistent += usize::from(a == ForwardError::InconsistentLengths);
+                            }
+                            (a, b) => {
+                                panic!("{name}: cable {cable} {delta:+} m, warm {warm}: {a:?} against {b:?}")
+                            }
+                        }
+                        compared += 1;
+                    }
+                }
+            }
+        }
+    }
+    // Both verdicts reached: the small slips are poses, the large ones not.
+    assert_eq!(compared, 320);
+    assert!(inconsistent > 64 && inconsistent < 256, "{inconsistent} of {compared}");
+    println!("{inconsistent} of {compared} inconsistent in both frames");
 }

@@ -29,8 +29,15 @@ fn moved(shift: [f32; 3], gravity: [f32; 3]) -> cdpr_control::ControlRobot {
     let anchors = base.anchors().map(|a| a + Vector3::from(shift));
     let mut platform = *base.platform();
     platform.gravity = Vector3::from(gravity);
-    tension_core::Robot::new(base.kind(), anchors, *base.attachments(), *base.limits(), platform, base.winch().copied())
-        .unwrap()
+    tension_core::Robot::new(
+        base.kind(),
+        anchors,
+        *base.attachments(),
+        *base.limits(),
+        platform,
+        base.winch().copied(),
+    )
+    .unwrap()
 }
 
 /// Across gravity the range is the anchors' box wherever the base origin

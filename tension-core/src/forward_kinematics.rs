@@ -112,7 +112,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use crate::{
     kinematics::{Pose, Robot, RobotKind},
     linalg::Ldl,
-    scalar::{all_finite, greater},
+    scalar::{all_finite, greater, max},
     tolerance, Real,
 };
 
@@ -183,27 +183,30 @@ pub struct ForwardSettings<T: Real> {
 }
 
 impl<T: Real> ForwardSettings<T> {
-    /// Defaults for a robot of size `s` (the largest anchor or attachment
-    /// coordinate or side of the anchors' box, m; 4 m for suspended-8):
+    /// Defaults for a robot of size `s` (the largest side of the anchors'
+    /// box or attachment coordinate, m; 4 m for suspended-8) whose
+    /// coordinates reach `c` (the largest anchor or attachment coordinate,
+    /// at least `s`; `c = s` for a base frame at the robot, as in every
+    /// file of `robots/`):
     /// * `max_iterations = 30` (a run from the grids' starts that converges
     ///   needs at most about 20; the warm path of a 1 kHz trajectory 1 to 3);
-    /// * `tolerance = 32 eps s`: the lengths' own rounding is a few `eps s`,
+    /// * `tolerance = 32 eps c`: the lengths' own rounding is a few `eps c`,
     ///   and the step's length change is the residual projected on `J`'s
-    ///   range, so this stays reachable (f64, s = 4: 2.8e-14 m; f32: 1.5e-5 m);
-    /// * `consistency = max(2.5e-4 s, 1e3 eps s)`: 1 mm for s = 4 m, far
+    ///   range, so this stays reachable (f64, c = 4: 2.8e-14 m; f32: 1.5e-5 m);
+    /// * `consistency = max(2.5e-4 s, 1e3 eps c)`: 1 mm for s = 4 m, far
     ///   above an encoder count (2 um on suspended-8) and the rounding, far
-    ///   below a slack or slipped cable;
+    ///   below a slack or slipped cable, wherever the base frame lies;
     /// * `condition_max = 0.05 / sqrt(eps)`: 3.4e6 in f64, 145 in f32, where
     ///   `condition * eps` is the relative rounding of the pose that the
     ///   normal equations leave (`cond^2 eps` for `J^T J`), kept under
     ///   about 2.5e-3 (f32) of the robot's size.
     pub fn for_robot<const N: usize, const M: usize>(robot: &Robot<T, N, M>) -> Self {
-        let s = robot_size(robot);
+        let (s, magnitude) = robot_sizes(robot);
         let eps = T::eps();
         Self {
             max_iterations: 30,
-            tolerance: T::lit(32.0) * eps * s,
-            consistency: (T::lit(2.5e-4) * s).max(T::lit(1.0e3) * eps * s),
+            tolerance: T::lit(32.0) * eps * magnitude,
+            consistency: (T::lit(2.5e-4) * s).max(T::lit(1.0e3) * eps * magnitude),
             condition_max: T::lit(0.05) / eps.sqrt_native(),
         }
     }
@@ -248,19 +251,30 @@ pub struct ForwardFailure<T: Real, const N: usize, const M: usize> {
     pub closest: Option<ForwardSolution<T, N, M>>,
 }
 
-/// The size of a robot: the largest anchor or attachment coordinate, or
-/// side of the anchors' box, at least 1e-30 (so that scaled tolerances of a
-/// robot at the origin are not zero).
-fn robot_size<T: Real, const N: usize, const M: usize>(robot: &Robot<T, N, M>) -> T {
-    let mut s = T::lit(1.0e-30);
+/// A robot's `(size, magnitude)`, each at least 1e-30 (so that scaled
+/// tolerances of a robot at the origin are not zero):
+/// * its size: the largest side of the anchors' box or attachment
+///   coordinate. Where the base frame lies does not change it. A slack or
+///   slipped cable, and how far a pose may lie from the robot, are
+///   measured against it (with the base frame 50 m beside suspended-8 the
+///   largest coordinate, used before, had made a 13 mm error consistent,
+///   against 1 mm);
+/// * the magnitude of its coordinates: the largest anchor or attachment
+///   coordinate, or its size. What the rounding of lengths and poses
+///   scales with.
+fn robot_sizes<T: Real, const N: usize, const M: usize>(robot: &Robot<T, N, M>) -> (T, T) {
+    let (mut size, mut coordinates) = (T::lit(1.0e-30), T::lit(1.0e-30));
     let (mut lo, mut hi) = (robot.anchors()[0], robot.anchors()[0]);
+    // Plain comparisons: `f32::max` is a libm call on the board.
     for i in 0..M {
-        let a = robot.anchors()[i];
-        s = s.max(a.amax()).max(robot.attachments()[i].amax());
+        let (a, b) = (robot.anchors()[i], robot.attachments()[i].amax());
+        size = max(size, b);
+        coordinates = max(max(coordinates, a.amax()), b);
         lo = lo.inf(&a);
         hi = hi.sup(&a);
     }
-    s.max((hi - lo).amax())
+    let size = max(size, (hi - lo).amax());
+    (size, max(coordinates, size))
 }
 
 /// The region the cold start searches, and the flat anchor planes.
@@ -274,7 +288,10 @@ struct Region<T: Real> {
     plane: Vector3<T>,
     /// Mean attachment `b` (platform frame; zero for planar2).
     b_mean: Vector3<T>,
+    /// The robot's size ([`robot_sizes`]).
     size: T,
+    /// The magnitude of its coordinates ([`robot_sizes`]).
+    magnitude: T,
 }
 
 impl<T: Real> Region<T> {
@@ -317,7 +334,8 @@ impl<T: Real> Region<T> {
                 hi[k] = if mid < -tenth { T::zero() } else { hi[k] + widest };
             }
         }
-        Self { lo, hi, side, plane, b_mean, size: robot_size(robot) }
+        let (size, magnitude) = robot_sizes(robot);
+        Self { lo, hi, side, plane, b_mean, size, magnitude }
     }
 
     /// The attachments' centroid (`p + R b_mean`) is not beyond a flat
@@ -420,7 +438,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         if N != self.kind().dof() {
             return None;
         }
-        let floor = tolerance::degenerate_length(robot_size(self));
+        let floor = tolerance::degenerate_length(robot_sizes(self).1);
         let pt = self.evaluate(pose, &SVector::zeros(), floor)?;
         Some(self.linearise(&pt).j)
     }
@@ -451,7 +469,7 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
             return Err(fail(ForwardError::NonFinite));
         }
         let region = Region::of(self);
-        let floor = tolerance::degenerate_length(region.size);
+        let floor = tolerance::degenerate_length(region.magnitude);
         let mut iterations = 0u32;
         // The closest converged run and the closest of any run, for the
         // failure report (a converged, inconsistent run outranks the cap).
