@@ -5,7 +5,7 @@
 //!
 //! 1. **Centre**: the centroid (rounded to the millimetre, no rotation)
 //!    of the positions on a 19 x 19 x 19 grid over the box the setpoint
-//!    range is built on (the anchors, and the base origin along gravity) where the static pose
+//!    range is built on (`SetpointRange::for_robot`) where the static pose
 //!    has barycenter tensions; it must have them itself.
 //! 2. **Loop**: amplitudes start at fractions of the box's half-extents
 //!    ([`START_FRACTION`], rotations [`START_ANGLES`]) and shrink by
@@ -127,8 +127,8 @@ pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
     if count == 0 {
         return Err(format!(
             "no pose on a grid over the setpoint range's box (x {:.3}..{:.3}, y {:.3}..{:.3}, z {:.3}..{:.3} m: \
-             the anchors' box stretched to the base origin along gravity) has feasible static tensions; \
-             a suspended robot's base origin must lie on the floor under it",
+             the anchors' box and, along gravity, the base origin) has feasible static tensions; \
+             a suspended robot's base origin must lie on the floor under it or in its anchors' plane",
             lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]
         ));
     }

@@ -51,36 +51,50 @@ fn limits_too_large_for_the_boards_f32_name_the_bound() {
 }
 
 /// A robot file whose base frame lies beside the robot (suspended-8's
-/// anchors moved by 50 m and 30 m across gravity): the same demo, moved.
-/// The setpoint range took the base origin on every axis, so the range was
-/// 52 m wide, the derivation's grid found a centre 0.6 m off, and no loop
-/// around it kept its margin ("no loop around the centre [50.632, 30.161,
-/// 1.941]"); across gravity the origin's place now does not count.
+/// anchors moved by 50 m and 30 m across gravity), or on its ceiling (the
+/// anchors in the plane z = 0): the same demo, moved (on the ceiling, a demo
+/// under the anchors). The setpoint range
+/// took the base origin on every axis, so the range was 52 m wide, the
+/// derivation's grid found a centre 0.6 m off, and no loop around it kept
+/// its margin ("no loop around the centre [50.632, 30.161, 1.941]"); with
+/// the frame on the ceiling the range held no pose under the anchors.
 #[test]
-fn a_frame_beside_the_robot_moves_the_demo_and_nothing_else() {
+fn a_frame_beside_the_robot_or_on_its_ceiling_moves_the_demo_and_nothing_else() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/suspended-8.toml");
     let text = std::fs::read_to_string(path).unwrap();
-    let mut moved = String::new();
-    let mut anchors = 0;
-    for line in text.lines() {
-        if let Some(list) = line.strip_prefix("anchor = [").and_then(|l| l.strip_suffix(']')) {
-            let a: Vec<f64> = list.split(',').map(|x| x.trim().parse().unwrap()).collect();
-            moved += &format!("anchor = [{:?}, {:?}, {:?}]\n", a[0] + 50.0, a[1] + 30.0, a[2]);
-            anchors += 1;
-        } else {
-            moved += line;
-            moved += "\n";
-        }
-    }
-    assert_eq!(anchors, 8);
-    let robot = robot_file::RobotFile::parse(&moved).unwrap().to_robot::<f64, 6, 8>().unwrap();
     let (_, base) = derived("robots/suspended-8.toml");
-    let d = derive(&robot).unwrap_or_else(|e| panic!("moved: {e}"));
-    let (b, m) = (base.params, d.params);
-    // The centre is rounded to the millimetre.
-    for (k, shift) in [50.0f32, 30.0, 0.0].into_iter().enumerate() {
-        assert!((m.centre[k] - b.centre[k] - shift).abs() <= 1.5e-3, "{:?} vs {:?}", m.centre, b.centre);
+    for shift in [[50.0, 30.0, 0.0], [0.0, 0.0, -3.5]] {
+        let mut moved = String::new();
+        let mut anchors = 0;
+        for line in text.lines() {
+            if let Some(list) = line.strip_prefix("anchor = [").and_then(|l| l.strip_suffix(']')) {
+                let a: Vec<f64> = list.split(',').map(|x| x.trim().parse().unwrap()).collect();
+                let at = |k: usize| a[k] + shift[k];
+                moved += &format!("anchor = [{:?}, {:?}, {:?}]\n", at(0), at(1), at(2));
+                anchors += 1;
+            } else {
+                moved += line;
+                moved += "\n";
+            }
+        }
+        assert_eq!(anchors, 8);
+        let robot = robot_file::RobotFile::parse(&moved).unwrap().to_robot::<f64, 6, 8>().unwrap();
+        let d = derive(&robot).unwrap_or_else(|e| panic!("moved by {shift:?}: {e}"));
+        let (b, m) = (base.params, d.params);
+        if shift[2] != 0.0 {
+            // On the ceiling the range reaches the anchors' widest extent
+            // (4 m) under them, not the 3.5 m to the floor: another grid,
+            // another centre, under the anchors and over the old floor.
+            println!("on the ceiling: {m:?}");
+            assert!(m.centre[2] < -0.5 && m.centre[2] > -3.5, "{:?}", m.centre);
+            continue;
+        }
+        // The centre is rounded to the millimetre.
+        for k in 0..3 {
+            let off = m.centre[k] - b.centre[k] - shift[k] as f32;
+            assert!(off.abs() <= 1.5e-3, "{shift:?}: {:?} vs {:?}", m.centre, b.centre);
+        }
+        assert_eq!((m.amplitude, m.excursion), (b.amplitude, b.excursion), "{shift:?}");
+        assert_eq!(d.infeasible_run, base.infeasible_run, "{shift:?}");
     }
-    assert_eq!((m.amplitude, m.excursion), (b.amplitude, b.excursion));
-    assert_eq!(d.infeasible_run, base.infeasible_run);
 }
