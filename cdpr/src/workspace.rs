@@ -4,7 +4,8 @@
 //! The frame is the bounding box of the anchors; along an axis where every
 //! anchor is at the same coordinate (a suspended robot's anchors all at one
 //! height) the box reaches down (or up) to the base frame's origin, the
-//! floor. The grid has cells of about `--step` metres; a cell counts as
+//! floor, or for anchors in the origin's plane (a robot framed on its
+//! ceiling) the anchors' widest extent along gravity ([`frame_box`]). The grid has cells of about `--step` metres; a cell counts as
 //! feasible when the method finds tensions within the limits at its centre.
 //! The volume is the number of feasible cells times the cell volume.
 
@@ -142,7 +143,10 @@ impl Grid {
 }
 
 /// The frame: the anchors' bounding box, reaching to the origin along an
-/// axis where the anchors have no extent.
+/// axis where the anchors have no extent; where they lie in the origin's
+/// plane (a suspended robot framed on its ceiling), the anchors' widest
+/// extent along gravity, the side the platform hangs on (conventions,
+/// forward kinematics).
 pub fn frame_box(robot: &LoadedRobot) -> Result<([f64; 3], [f64; 3]), CliError> {
     let dims = if robot.kind() == RobotKind::Spatial6 { 3 } else { 2 };
     let mut lo = [f64::INFINITY; 3];
@@ -153,15 +157,28 @@ pub fn frame_box(robot: &LoadedRobot) -> Result<([f64; 3], [f64; 3]), CliError> 
             hi[k] = hi[k].max(c.anchor[k]);
         }
     }
+    let widest = (0..dims).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
     for k in 0..3 {
         if k >= dims {
             lo[k] = 0.0;
             hi[k] = 0.0;
             continue;
         }
+        let gravity = robot.file.gravity[k];
         if hi[k] - lo[k] <= 1e-9 * (1.0 + hi[k].abs()) {
-            lo[k] = lo[k].min(0.0);
-            hi[k] = hi[k].max(0.0);
+            // The forward kinematics' test: a plane within a tenth of the
+            // widest extent from the origin has the platform on gravity's
+            // side.
+            if gravity != 0.0 && (0.5 * (lo[k] + hi[k])).abs() <= 0.1 * widest {
+                if gravity < 0.0 {
+                    lo[k] -= widest;
+                } else {
+                    hi[k] += widest;
+                }
+            } else {
+                lo[k] = lo[k].min(0.0);
+                hi[k] = hi[k].max(0.0);
+            }
         }
         if hi[k] - lo[k] <= 0.0 {
             return Err(CliError::at(

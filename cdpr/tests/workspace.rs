@@ -91,6 +91,43 @@ fn two_cable_pendulum_area_matches_the_hand_formula() {
     }
 }
 
+/// The same pendulum framed on its ceiling (anchors at y = 0): the frame
+/// reaches the anchors' widest extent (2 m) down along gravity, where the
+/// forward kinematics takes the platform to hang, and the area is the one
+/// framed from the floor, cell for cell. The tool refused it ("every
+/// anchor has y = 0 ... give --bounds"); without gravity it still does.
+#[test]
+fn a_pendulum_framed_on_its_ceiling_has_the_same_area() {
+    let dir = scratch("ws-ceiling");
+    let robot = |anchor_y: f64, gravity_y: f64| {
+        format!(
+            "name = \"pendulum\"\nkind = \"planar2\"\n[limits]\nt_min = 2.0\nt_max = 12.0\n[platform]\nmass = 1.0\ngravity = [0.0, {gravity_y:?}, 0.0]\n\
+             [[cable]]\nanchor = [0.0, {anchor_y:?}, 0.0]\nattach = [0.0, 0.0, 0.0]\n\
+             [[cable]]\nanchor = [2.0, {anchor_y:?}, 0.0]\nattach = [0.0, 0.0, 0.0]\n"
+        )
+    };
+    let mut summaries = Vec::new();
+    for (name, anchor_y) in [("floor.toml", 2.0), ("ceiling.toml", 0.0)] {
+        write_robot(&dir, name, &robot(anchor_y, -9.81));
+        cdpr_ok(&dir, &["workspace", "--robot", name, "--step", "0.02", "--out", "ws"]);
+        summaries.push(std::fs::read_to_string(dir.join("ws").join("summary.txt")).unwrap());
+    }
+    let cells = |s: &str| s.lines().find(|l| l.starts_with("cells:")).map(str::to_owned);
+    assert!(cells(&summaries[1]).is_some() && cells(&summaries[0]) == cells(&summaries[1]), "{summaries:?}");
+    let (floor, ceiling) = (summary_value(&summaries[0], "area:"), summary_value(&summaries[1], "area:"));
+    assert!(floor > 0.5 && (floor - ceiling).abs() < 1e-9, "{floor} against {ceiling}");
+    assert!(summaries[1].contains("y: -2 m to 0 m"), "{}", summaries[1]);
+    write_robot(&dir, "weightless.toml", &robot(0.0, 0.0));
+    let run = cdpr(&dir, &["workspace", "--robot", "weightless.toml", "--step", "0.02", "--out", "ws"]);
+    assert!(
+        run.code != 0
+            && run.stderr.contains("every anchor has y = 0")
+            && run.stderr.contains("give --bounds"),
+        "{}",
+        run.stderr
+    );
+}
+
 /// The suspended robot: the volume does not depend on the thread count,
 /// lies inside the frame, the sweep starts at the nominal robot, and the
 /// pictures exist. (A suspended robot's volume may grow with payload: the
