@@ -111,25 +111,47 @@ pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
     // 1. The centre: of the static feasible poses on a grid over the box.
     let steps = 19;
     let (mut sum, mut count) = ([0.0f64; 3], 0usize);
+    // How many grid poses failed with each status, for the error.
+    let mut failed: Vec<(&'static str, usize)> = Vec::new();
     for i in 0..steps {
         for j in 0..steps {
             for k in 0..steps {
                 let at =
                     |n: usize, axis: usize| lo[axis] + (n as f64 + 0.5) / steps as f64 * 2.0 * half[axis];
                 let p = [at(i, 0), at(j, 1), at(k, 2)];
-                if solve(robot, Method::Barycenter, &at_rest(p)).is_ok() {
-                    (0..3).for_each(|a| sum[a] += p[a]);
-                    count += 1;
+                match solve(robot, Method::Barycenter, &at_rest(p)) {
+                    Ok(_) => {
+                        (0..3).for_each(|a| sum[a] += p[a]);
+                        count += 1;
+                    }
+                    Err(e) => match failed.iter_mut().find(|(status, _)| *status == e.status()) {
+                        Some((_, n)) => *n += 1,
+                        None => failed.push((e.status(), 1)),
+                    },
                 }
             }
         }
     }
     if count == 0 {
+        let statuses: Vec<String> = failed.iter().map(|(status, n)| format!("{status} {n}")).collect();
+        let hint = if failed.iter().any(|&(status, _)| status == "infeasible") {
+            "; a suspended robot needs its base origin on the floor under it or in its anchors' plane, \
+             and a platform heavier than its cables' t_min pull up"
+        } else {
+            ""
+        };
         return Err(format!(
             "no pose on a grid over the setpoint range's box (x {:.3}..{:.3}, y {:.3}..{:.3}, z {:.3}..{:.3} m: \
-             the anchors' box and, along gravity, the base origin) has feasible static tensions; \
-             a suspended robot's base origin must lie on the floor under it or in its anchors' plane",
-            lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]
+             the anchors' box and, along gravity, the base origin) has feasible static tensions \
+             ({} poses: {}){hint}",
+            lo[0],
+            hi[0],
+            lo[1],
+            hi[1],
+            lo[2],
+            hi[2],
+            steps * steps * steps,
+            statuses.join(", "),
         ));
     }
     // Rounded to the millimetre, so that the constants read well.

@@ -98,3 +98,34 @@ fn a_frame_beside_the_robot_or_on_its_ceiling_moves_the_demo_and_nothing_else() 
         assert_eq!(d.infeasible_run, base.infeasible_run, "{shift:?}");
     }
 }
+
+/// A robot for which the derivation finds no static pose says what the
+/// grid's poses gave: suspended-8 with every attachment at the platform's
+/// origin is singular everywhere (nothing holds its rotation), and framed
+/// 20 m above its anchors it hangs outside the range (infeasible there);
+/// only the second gets the hint about the frame. The first was told its
+/// base origin was misplaced.
+#[test]
+fn no_static_pose_says_what_the_grid_gave() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/suspended-8.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let edit = |f: &dyn Fn(&str) -> String| -> String { text.lines().map(|l| f(l) + "\n").collect() };
+    let point = edit(&|l: &str| {
+        if l.starts_with("attach = ") {
+            "attach = [0.0, 0.0, 0.0]".into()
+        } else {
+            l.into()
+        }
+    });
+    let above =
+        edit(&|l: &str| if l.starts_with("anchor = ") { l.replace(", 3.5]", ", -16.5]") } else { l.into() });
+    assert_eq!(above.matches(", -16.5]").count(), 8);
+    for (robot, says, hint) in
+        [(point, "(6859 poses: singular 6859)", false), (above, "(6859 poses: infeasible 6859)", true)]
+    {
+        let robot = robot_file::RobotFile::parse(&robot).unwrap().to_robot::<f64, 6, 8>().unwrap();
+        let e = derive(&robot).unwrap_err();
+        assert!(e.contains(says), "{e}");
+        assert_eq!(e.contains("base origin on the floor"), hint, "{e}");
+    }
+}
