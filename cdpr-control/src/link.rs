@@ -54,51 +54,21 @@ impl SetpointRange {
     /// How far a position may lie outside the box of [`SetpointRange::for_robot`], m.
     pub const MARGIN: f32 = 0.5;
 
-    /// The range for `robot`: positions within the box spanned by the
-    /// anchors and, along the axes gravity acts on, the base frame's
-    /// origin (the floor under a suspended robot), widened by
-    /// [`SetpointRange::MARGIN`]; Euler angles within 1 rad; speeds and
-    /// accelerations a winch of the firmware's size can follow (5 m/s,
-    /// 10 rad/s, 50 m/s^2, 100 rad/s^2).
+    /// The range for `robot`: positions within the box the platform can be
+    /// in (`Robot::platform_region`: the anchors' bounding box, reaching
+    /// from a flat anchor plane to the base origin, the floor under a
+    /// suspended robot, or for a plane through the origin as far as the box
+    /// is wide along gravity), widened by [`SetpointRange::MARGIN`]; Euler
+    /// angles within 1 rad; speeds and accelerations a winch of the
+    /// firmware's size can follow (5 m/s, 10 rad/s, 50 m/s^2, 100 rad/s^2).
     ///
-    /// Across gravity the platform stays within the anchors' extent (a
-    /// cable pulls it towards its anchor), so the origin's place there does
-    /// not matter: a robot file whose frame lay 50 m beside the robot gave
-    /// a range 50 m wide, and a demo derived on it whose centre was 0.6 m
-    /// off. Anchors in one plane through the origin across gravity (a
-    /// suspended robot whose frame is on its ceiling) have no floor: the
-    /// range reaches the anchors' widest extent down along gravity, where
-    /// the forward kinematics takes the platform to hang (conventions).
+    /// The range spanned the anchors and the base origin on every axis: a
+    /// robot file whose frame lay 50 m beside the robot gave a range 50 m
+    /// wide and a demo derived on it whose centre was 0.6 m off, and one
+    /// framed on its ceiling a range that held no pose under the anchors.
     pub fn for_robot<const N: usize, const M: usize>(robot: &Robot<f32, N, M>) -> Self {
-        let gravity = robot.platform().gravity;
-        let first = robot.anchors().first().map_or([0.0f32; 3], |a| [a[0], a[1], a[2]]);
-        let mut position_min = first;
-        let mut position_max = first;
-        for anchor in robot.anchors() {
-            for (k, &a) in anchor.iter().enumerate() {
-                position_min[k] = position_min[k].min(a);
-                position_max[k] = position_max[k].max(a);
-            }
-        }
-        let widest = (0..3).map(|k| position_max[k] - position_min[k]).fold(0.0f32, f32::max);
-        // The forward kinematics' flat-plane test (a tenth of the widest).
-        let tenth = 0.1 * widest;
-        for k in 0..3 {
-            if gravity[k] == 0.0 {
-                continue;
-            }
-            let mid = 0.5 * (position_min[k] + position_max[k]);
-            if position_max[k] - position_min[k] <= tenth && libm::fabsf(mid) <= tenth {
-                if gravity[k] < 0.0 {
-                    position_min[k] -= widest;
-                } else {
-                    position_max[k] += widest;
-                }
-            } else {
-                position_min[k] = position_min[k].min(0.0);
-                position_max[k] = position_max[k].max(0.0);
-            }
-        }
+        let (lo, hi) = robot.platform_region();
+        let (position_min, position_max) = ([lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]);
         Self {
             position_min: position_min.map(|p| p - Self::MARGIN),
             position_max: position_max.map(|p| p + Self::MARGIN),

@@ -190,6 +190,8 @@ pub trait Model: Send + Sync {
     fn required_wrench(&self, query: &Query<'_>, out: &mut [f64]) -> Result<(), Error>;
     /// The winch data (for motor torques), when the robot file has it.
     fn winch(&self) -> Option<Winch<f64>>;
+    /// The box the platform can be in, `(lo, hi)` (`Robot::platform_region`).
+    fn platform_region(&self) -> ([f64; 3], [f64; 3]);
 }
 
 /// One row of `cdpr forward`: the pose or why not, and the worst residual
@@ -241,6 +243,10 @@ impl<const N: usize, const M: usize> Model for Shaped<N, M> {
     }
     fn mass(&self) -> f64 {
         self.robot.platform().mass
+    }
+    fn platform_region(&self) -> ([f64; 3], [f64; 3]) {
+        let (lo, hi) = self.robot.platform_region();
+        (lo.into(), hi.into())
     }
     fn solver(&self, method: Method) -> Box<dyn ShapeSolver> {
         Box::new(ShapedSolver {

@@ -1,11 +1,12 @@
 //! `cdpr workspace`: the wrench-feasible workspace at a constant
 //! orientation (static wrench: gravity only) on a grid over the frame.
 //!
-//! The frame is the bounding box of the anchors; along an axis where every
-//! anchor is at the same coordinate (a suspended robot's anchors all at one
-//! height) the box reaches down (or up) to the base frame's origin, the
-//! floor, or for anchors in the origin's plane (a robot framed on its
-//! ceiling) the anchors' widest extent along gravity ([`frame_box`]). The grid has cells of about `--step` metres; a cell counts as
+//! The frame is the bounding box of the anchors; along an axis where the
+//! anchors lie within a tenth of the box's width of one plane (a suspended
+//! robot's anchors near one height) the box reaches down (or up) to the
+//! base frame's origin, the floor, or for anchors in the origin's plane (a
+//! robot framed on its ceiling) as far as the box is wide along gravity:
+//! the forward kinematics' region ([`frame_box`]). The grid has cells of about `--step` metres; a cell counts as
 //! feasible when the method finds tensions within the limits at its centre.
 //! The volume is the number of feasible cells times the cell volume.
 
@@ -142,44 +143,15 @@ impl Grid {
     }
 }
 
-/// The frame: the anchors' bounding box, reaching to the origin along an
-/// axis where the anchors have no extent; where they lie in the origin's
-/// plane (a suspended robot framed on its ceiling), the anchors' widest
-/// extent along gravity, the side the platform hangs on (conventions,
-/// forward kinematics).
+/// The frame: the box the platform can be in (`Robot::platform_region`,
+/// the forward kinematics' region): the anchors' bounding box, reaching
+/// from a flat anchor plane (within a tenth of the box's width) to the base
+/// origin, the floor, or for a plane through the origin as far as the box
+/// is wide along gravity. An axis still without extent is an error.
 pub fn frame_box(robot: &LoadedRobot) -> Result<([f64; 3], [f64; 3]), CliError> {
     let dims = if robot.kind() == RobotKind::Spatial6 { 3 } else { 2 };
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for c in &robot.file.cables {
-        for k in 0..3 {
-            lo[k] = lo[k].min(c.anchor[k]);
-            hi[k] = hi[k].max(c.anchor[k]);
-        }
-    }
-    let widest = (0..dims).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-    for k in 0..3 {
-        if k >= dims {
-            lo[k] = 0.0;
-            hi[k] = 0.0;
-            continue;
-        }
-        let gravity = robot.file.gravity[k];
-        if hi[k] - lo[k] <= 1e-9 * (1.0 + hi[k].abs()) {
-            // The forward kinematics' test: a plane within a tenth of the
-            // widest extent from the origin has the platform on gravity's
-            // side.
-            if gravity != 0.0 && (0.5 * (lo[k] + hi[k])).abs() <= 0.1 * widest {
-                if gravity < 0.0 {
-                    lo[k] -= widest;
-                } else {
-                    hi[k] += widest;
-                }
-            } else {
-                lo[k] = lo[k].min(0.0);
-                hi[k] = hi[k].max(0.0);
-            }
-        }
+    let (lo, hi) = robot.model()?.platform_region();
+    for k in 0..dims {
         if hi[k] - lo[k] <= 0.0 {
             return Err(CliError::at(
                 &robot.path,

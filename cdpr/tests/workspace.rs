@@ -95,7 +95,7 @@ fn two_cable_pendulum_area_matches_the_hand_formula() {
 /// reaches the anchors' widest extent (2 m) down along gravity, where the
 /// forward kinematics takes the platform to hang, and the area is the one
 /// framed from the floor, cell for cell. The tool refused it ("every
-/// anchor has y = 0 ... give --bounds"); without gravity it still does.
+/// anchor has y = 0 ... give --bounds").
 #[test]
 fn a_pendulum_framed_on_its_ceiling_has_the_same_area() {
     let dir = scratch("ws-ceiling");
@@ -117,15 +117,37 @@ fn a_pendulum_framed_on_its_ceiling_has_the_same_area() {
     let (floor, ceiling) = (summary_value(&summaries[0], "area:"), summary_value(&summaries[1], "area:"));
     assert!(floor > 0.5 && (floor - ceiling).abs() < 1e-9, "{floor} against {ceiling}");
     assert!(summaries[1].contains("y: -2 m to 0 m"), "{}", summaries[1]);
+    // Without gravity along it, the negative side (the forward kinematics'
+    // region); anchors at one point give no frame at all.
     write_robot(&dir, "weightless.toml", &robot(0.0, 0.0));
-    let run = cdpr(&dir, &["workspace", "--robot", "weightless.toml", "--step", "0.02", "--out", "ws"]);
+    cdpr_ok(&dir, &["workspace", "--robot", "weightless.toml", "--step", "0.02", "--out", "ws"]);
+    let summary = std::fs::read_to_string(dir.join("ws").join("summary.txt")).unwrap();
+    assert!(summary.contains("y: -2 m to 0 m"), "{summary}");
+    write_robot(&dir, "one-point.toml", &robot(0.0, -9.81).replace("anchor = [2.0,", "anchor = [0.0,"));
+    let run = cdpr(&dir, &["workspace", "--robot", "one-point.toml", "--step", "0.02", "--out", "ws"]);
     assert!(
-        run.code != 0
-            && run.stderr.contains("every anchor has y = 0")
-            && run.stderr.contains("give --bounds"),
+        run.code != 0 && run.stderr.contains("so the frame has no extent along it; give --bounds"),
         "{}",
         run.stderr
     );
+}
+
+/// COGIRO's anchors lie within 3 cm of one height (5.387 to 5.42 m): the
+/// default frame was that 3 cm slab, and the volume 0 m^3 ("0.00 % of the
+/// frame"). The frame now reaches the floor as the forward kinematics'
+/// region does, and most of it holds the platform.
+#[test]
+fn cogiros_nearly_level_anchors_frame_reaches_the_floor() {
+    let dir = scratch("ws-cogiro");
+    cdpr_ok(
+        &dir,
+        &["workspace", "--robot", robot("cogiro").to_str().unwrap(), "--step", "0.5", "--out", "ws"],
+    );
+    let summary = std::fs::read_to_string(dir.join("ws").join("summary.txt")).unwrap();
+    assert!(summary.contains("z: 0 m to 5.42 m"), "{summary}");
+    let volume = summary_value(&summary, "volume:");
+    // The frame is 15 m x 11 m x 5.4 m, 894 m^3.
+    assert!(volume > 300.0 && volume < 894.0, "{summary}");
 }
 
 /// The suspended robot: the volume does not depend on the thread count,
