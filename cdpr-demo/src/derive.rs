@@ -142,7 +142,7 @@ pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
         };
         return Err(format!(
             "no pose on a grid over the setpoint range's box (x {:.3}..{:.3}, y {:.3}..{:.3}, z {:.3}..{:.3} m: \
-             the anchors' box and, along gravity, the base origin) has feasible static tensions \
+             the platform's region: `Robot::platform_region`) has feasible static tensions \
              ({} poses: {}){hint}",
             lo[0],
             hi[0],
