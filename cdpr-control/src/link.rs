@@ -56,11 +56,11 @@ impl SetpointRange {
 
     /// The range for `robot`: positions within the box the platform can be
     /// in (`Robot::platform_region`: the anchors' bounding box, reaching
-    /// from a flat anchor plane to the base origin, the floor under a
-    /// suspended robot, or for a plane through the origin as far as the box
-    /// is wide along gravity), widened by [`SetpointRange::MARGIN`]; Euler
-    /// angles within 1 rad; speeds and accelerations a winch of the
-    /// firmware's size can follow (5 m/s, 10 rad/s, 50 m/s^2, 100 rad/s^2).
+    /// along gravity to the base origin, the floor under a suspended robot,
+    /// or for anchors in the origin's plane as far as the box is wide),
+    /// widened by [`SetpointRange::MARGIN`]; Euler angles within 1 rad;
+    /// speeds and accelerations a winch of the firmware's size can follow
+    /// (5 m/s, 10 rad/s, 50 m/s^2, 100 rad/s^2).
     ///
     /// The range spanned the anchors and the base origin on every axis: a
     /// robot file whose frame lay 50 m beside the robot gave a range 50 m

@@ -62,6 +62,36 @@ fn the_range_is_the_platforms_region_wherever_the_frame_lies() {
     // build says why).
     let r = SetpointRange::for_robot(&moved([0.0, 0.0, -20.0], g));
     assert_eq!((r.position_min, r.position_max), ([-2.5, -2.0, -17.0], [2.5, 2.0, 0.5]));
+    // Gravity along -y (a robot on a wall): the origin counts along y only;
+    // without gravity, the anchors' box alone.
+    let r = SetpointRange::for_robot(&moved([50.0, 30.0, 0.0], [0.0, -9.81, 0.0]));
+    assert_eq!((r.position_min, r.position_max), ([47.5, -0.5, 3.0], [52.5, 32.0, 4.0]));
+    let r = SetpointRange::for_robot(&moved([50.0, 30.0, 0.0], [0.0; 3]));
+    assert_eq!((r.position_min, r.position_max), ([47.5, 28.0, 3.0], [52.5, 32.0, 4.0]));
+    // A frame tilted by 10 degrees about x (anchors and gravity turned):
+    // the anchors span 0.52 m in z, more than the flat test's 0.4 m, and
+    // the range still reaches the floor, where the platform hangs (a range
+    // of the anchors' box alone derived a demo 0.3 m under them, whose
+    // every hold in hal-sim faulted).
+    let (s, c) = 10f32.to_radians().sin_cos();
+    let base = common::suspended8();
+    let mut platform = *base.platform();
+    platform.gravity = tension_core::nalgebra::Vector3::new(0.0, 9.81 * s, -9.81 * c);
+    let turned = base
+        .anchors()
+        .map(|a| tension_core::nalgebra::Vector3::new(a.x, c * a.y - s * a.z, s * a.y + c * a.z));
+    let tilted: cdpr_control::ControlRobot = tension_core::Robot::new(
+        base.kind(),
+        turned,
+        *base.attachments(),
+        *base.limits(),
+        platform,
+        base.winch().copied(),
+    )
+    .unwrap();
+    let r = SetpointRange::for_robot(&tilted);
+    assert_eq!(r.position_min[2], -0.5, "{r:?}");
+    assert!((r.position_max[2] - (3.5 * c + 1.5 * s + 0.5)).abs() < 1e-5, "{r:?}");
     for (name, min, max) in [
         ("ipanema1", [-2.5, -2.0, -0.5], [2.5, 2.0, 2.5]),
         ("cogiro", [-7.9594, -6.0342, -0.5], [8.0208, 5.9753, 5.92]),

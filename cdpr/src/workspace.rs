@@ -1,12 +1,11 @@
 //! `cdpr workspace`: the wrench-feasible workspace at a constant
 //! orientation (static wrench: gravity only) on a grid over the frame.
 //!
-//! The frame is the bounding box of the anchors; along an axis where the
-//! anchors lie within a tenth of the box's width of one plane (a suspended
-//! robot's anchors near one height) the box reaches down (or up) to the
-//! base frame's origin, the floor, or for anchors in the origin's plane (a
-//! robot framed on its ceiling) as far as the box is wide along gravity:
-//! the forward kinematics' region ([`frame_box`]). The grid has cells of about `--step` metres; a cell counts as
+//! The frame is the bounding box of the anchors, reaching along gravity to
+//! the base frame's origin (the floor under a suspended robot), or for
+//! anchors in the origin's plane (a robot framed on its ceiling) as far as
+//! the box is wide ([`frame_box`]). The grid has cells of about `--step`
+//! metres; a cell counts as
 //! feasible when the method finds tensions within the limits at its centre.
 //! The volume is the number of feasible cells times the cell volume.
 
@@ -143,11 +142,10 @@ impl Grid {
     }
 }
 
-/// The frame: the box the platform can be in (`Robot::platform_region`,
-/// the forward kinematics' region): the anchors' bounding box, reaching
-/// from a flat anchor plane (within a tenth of the box's width) to the base
-/// origin, the floor, or for a plane through the origin as far as the box
-/// is wide along gravity. An axis still without extent is an error.
+/// The frame: the box the platform can be in (`Robot::platform_region`):
+/// the anchors' bounding box, reaching along gravity to the base origin,
+/// the floor, or for anchors in the origin's plane as far as the box is
+/// wide. An axis still without extent is an error.
 pub fn frame_box(robot: &LoadedRobot) -> Result<([f64; 3], [f64; 3]), CliError> {
     let dims = if robot.kind() == RobotKind::Spatial6 { 3 } else { 2 };
     let (lo, hi) = robot.model()?.platform_region();

@@ -572,9 +572,8 @@ impl Robot {
     /// The wrench-feasible workspace at a constant orientation (static
     /// wrench: gravity only), as `cdpr workspace`: cells of about `step`
     /// metres over `bounds` (`(dims, 2)`: lo, hi per axis; default the
-    /// anchors' bounding box, down to the floor along an axis where the
-    /// anchors have no extent, or along gravity from anchors in the
-    /// origin's plane: `cdpr workspace`'s frame), a cell feasible when `method` (default
+    /// anchors' bounding box reaching along gravity to the floor, the base
+    /// origin: `cdpr workspace`'s frame), a cell feasible when `method` (default
     /// `barycenter` where it applies, else `improved-closed-form`) finds
     /// tensions at its centre; `threads` workers (default every core), the
     /// GIL released.

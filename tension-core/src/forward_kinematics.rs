@@ -59,8 +59,7 @@
 //!   seen on small platforms, loses to the true pose). The region is the anchors' bounding box (x, y for planar
 //!   robots); along an axis where the anchors span at most a tenth of the
 //!   box's largest side (a suspended robot's anchors all near one height)
-//!   the box is *flat* and reaches from the anchors to the base origin, as
-//!   `cdpr workspace`'s frame does (`Robot::platform_region`; when the anchors' plane passes within that
+//!   the box is *flat* and reaches from the anchors to the base origin (when the anchors' plane passes within that
 //!   tenth of the origin, it reaches as far as the box is wide to the side
 //!   gravity points, the negative side without gravity along it). The
 //!   platform hangs on that side: a pose whose attachments' centroid lies on
@@ -415,18 +414,6 @@ fn wrap<T: Real>(x: T) -> T {
 }
 
 impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
-    /// The box the platform can be in, `(lo, hi)`, base frame, m: the
-    /// anchors' bounding box (x, y for planar robots), reaching from a flat
-    /// anchor plane to the base origin or, for a plane through the origin,
-    /// as far as the box is wide to the side gravity points (the *region*
-    /// of the module documentation: where the forward kinematics searches
-    /// and the side it takes the platform to hang on). `cdpr workspace`'s
-    /// default frame and the board's setpoint range are this box.
-    pub fn platform_region(&self) -> (Vector3<T>, Vector3<T>) {
-        let region = Region::of(self);
-        (region.lo, region.hi)
-    }
-
     /// The pose whose cable lengths are `lengths` (m, cable order), by damped
     /// Gauss-Newton on `r_i = |a_i - p - R b_i| - L_i`, warm-started from
     /// `warm` (the previous cycle's pose; `None`: cold start). See the

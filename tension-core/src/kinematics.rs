@@ -317,6 +317,54 @@ impl<T: Real, const N: usize, const M: usize> Robot<T, N, M> {
         self.winch.as_ref()
     }
 
+    /// The box the platform can be in, `(lo, hi)`, base frame, m: the
+    /// anchors' bounding box (x, y for planar robots; z is 0), reaching
+    /// along each axis gravity acts on to the base origin (the floor under
+    /// a suspended robot). Where the anchors lie in one plane through the
+    /// origin across that axis (within a tenth of the box's width, the
+    /// forward kinematics' test: a suspended robot framed on its ceiling)
+    /// it reaches as far as the box is wide to the side gravity points,
+    /// where the platform hangs (conventions). Across gravity a cable pulls
+    /// the platform towards its anchor, so the origin's place there does
+    /// not count, nor does the frame's tilt: with gravity on two axes both
+    /// reach the origin. The board's setpoint range (0.5 m wider) and
+    /// `cdpr workspace`'s default frame are this box.
+    pub fn platform_region(&self) -> (Vector3<T>, Vector3<T>) {
+        let axes = if self.kind == RobotKind::Spatial6 { 3 } else { 2 };
+        let (mut lo, mut hi) = (self.anchors[0], self.anchors[0]);
+        for a in &self.anchors {
+            lo = lo.inf(a);
+            hi = hi.sup(a);
+        }
+        let mut widest = T::zero();
+        for k in 0..axes {
+            widest = max(widest, hi[k] - lo[k]);
+        }
+        let tenth = T::lit(0.1) * widest;
+        for k in axes..3 {
+            lo[k] = T::zero();
+            hi[k] = T::zero();
+        }
+        for k in 0..axes {
+            let g = self.platform.gravity[k];
+            if g == T::zero() {
+                continue;
+            }
+            let mid = (lo[k] + hi[k]) * T::lit(0.5);
+            if hi[k] - lo[k] <= tenth && mid.abs() <= tenth {
+                if g < T::zero() {
+                    lo[k] -= widest;
+                } else {
+                    hi[k] += widest;
+                }
+            } else {
+                lo[k] = min(lo[k], T::zero());
+                hi[k] = max(hi[k], T::zero());
+            }
+        }
+        (lo, hi)
+    }
+
     /// Base anchors `a_i`.
     pub fn anchors(&self) -> &[Vector3<T>; M] {
         &self.anchors
