@@ -129,3 +129,45 @@ fn no_static_pose_says_what_the_grid_gave() {
         assert_eq!(e.contains("base origin on the floor"), hint, "{e}");
     }
 }
+
+/// A frame tilted by 10 degrees about x (anchors and gravity turned): the
+/// demo's centre hangs as far under the anchors as suspended-8's own
+/// (1.49 m). With a setpoint range of the anchors' box alone (the forward
+/// kinematics' axis-aligned flat test misses the tilted plane: the anchors
+/// span 0.52 m in z) the centre was 0.3 m under them, where every hold in
+/// `hal-sim` faulted.
+#[test]
+fn a_tilted_frame_hangs_the_demo_as_deep() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/suspended-8.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let (s, c) = 10f64.to_radians().sin_cos();
+    let turn = |v: [f64; 3]| [v[0], c * v[1] - s * v[2], s * v[1] + c * v[2]];
+    let mut tilted = String::new();
+    for line in text.lines() {
+        let vector = |key: &str| {
+            let list = line.strip_prefix(key)?.strip_suffix(']')?;
+            let v: Vec<f64> = list.split(',').map(|x| x.trim().parse().unwrap()).collect();
+            let w = turn([v[0], v[1], v[2]]);
+            Some(format!("{key}{:?}, {:?}, {:?}]\n", w[0], w[1], w[2]))
+        };
+        match vector("anchor = [").or_else(|| vector("gravity = [")) {
+            Some(turned) => tilted += &turned,
+            None => {
+                tilted += line;
+                tilted += "\n";
+            }
+        }
+    }
+    let robot = robot_file::RobotFile::parse(&tilted).unwrap().to_robot::<f64, 6, 8>().unwrap();
+    let d = derive(&robot).unwrap_or_else(|e| panic!("tilted: {e}"));
+    // Depth under the anchors' plane, along gravity (the plane's normal).
+    let (anchor, centre) = (robot.anchors()[0], d.params.centre.map(f64::from));
+    let normal = turn([0.0, 0.0, 1.0]);
+    let depth: f64 = (0..3).map(|k| (anchor[k] - centre[k]) * normal[k]).sum();
+    let (_, base) = derived("robots/suspended-8.toml");
+    let base_depth = 3.5 - f64::from(base.params.centre[2]);
+    assert!(
+        (depth - base_depth).abs() < 0.25,
+        "tilted {depth} m under the anchors, suspended-8 {base_depth} m"
+    );
+}
