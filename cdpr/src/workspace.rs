@@ -5,8 +5,8 @@
 //! the base frame's origin (the floor under a suspended robot), or for
 //! anchors in the origin's plane (a robot framed on its ceiling) as far as
 //! the box is wide ([`frame_box`]). The grid has cells of about `--step`
-//! metres; a cell counts as
-//! feasible when the method finds tensions within the limits at its centre.
+//! metres; a cell counts as feasible when the method finds tensions within
+//! the limits at its centre.
 //! The volume is the number of feasible cells times the cell volume.
 
 use std::fmt::Write as _;

@@ -59,9 +59,10 @@
 //!   seen on small platforms, loses to the true pose). The region is the anchors' bounding box (x, y for planar
 //!   robots); along an axis where the anchors span at most a tenth of the
 //!   box's largest side (a suspended robot's anchors all near one height)
-//!   the box is *flat* and reaches from the anchors to the base origin (when the anchors' plane passes within that
-//!   tenth of the origin, it reaches as far as the box is wide to the side
-//!   gravity points, the negative side without gravity along it). The
+//!   the box is *flat* and reaches from the anchors to the base origin
+//!   (when the anchors' plane passes within that tenth of the origin, it
+//!   reaches as far as the box is wide to the side gravity points, the
+//!   negative side without gravity along it). The
 //!   platform hangs on that side: a pose whose attachments' centroid lies on
 //!   the other side of a flat anchor plane (the mirror pose of coplanar
 //!   anchors, with the same lengths) is never returned, warm or cold. A
