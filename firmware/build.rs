@@ -32,6 +32,9 @@ fn main() {
     println!("cargo:rerun-if-env-changed=CDPR_ROBOT");
     // The demo with the drive layer in its measured step (`loopback::LAYER_IN_STEP`).
     println!("cargo:rerun-if-env-changed=CDPR_DEMO_CAN_LAYER");
+    // Set when the robot has no demo trajectory (the demo's programs then
+    // stop at `$OUT_DIR/no_demo.rs`'s `compile_error!`).
+    println!("cargo:rustc-check-cfg=cfg(no_demo)");
 
     // A relative path is taken from the workspace root (cargo runs build
     // scripts in the package's directory).
@@ -174,7 +177,47 @@ fn generate(path: &Path) -> Result<String, String> {
         s,
         "/// What the board answers `HostMessage::Identify` with.\npub const IDENTITY: cdpr_protocol::Identity = cdpr_protocol::Identity::new(NAME, IDENTITY_HASH, {DOF}, {CABLES});"
     );
-    let d = cdpr_demo::derive::derive(&robot).map_err(|e| format!("the demo trajectory: {e}"))?;
+    // The static workspace's centre: every program needs it (the stress
+    // set centres on it, the product's QEMU stand-in rests there when there
+    // is no demo).
+    let centre = cdpr_demo::derive::centre(&robot).map_err(|e| format!("the static workspace: {e}"))?;
+    let _ = writeln!(
+        s,
+        "/// The static workspace's centre, base frame, m (`cdpr_demo::derive::centre`; static barycenter robustness {:.3} N).\npub const CENTRE: [f32; 3] = {};",
+        centre.robustness,
+        list(centre.position.map(|x| format!("{x:?}_f32"))),
+    );
+    let home = match cdpr_demo::derive::derive(&robot) {
+        Ok(d) => {
+            demo(&mut s, &d);
+            d.params.setpoint_at(0.0).pose.into()
+        }
+        // A robot with no demo trajectory still gets its product (and its
+        // stress program); the demo's programs say why they do not build.
+        Err(e) => {
+            let why = format!(
+                "robot file {}: no demo trajectory ({e}); the product (`--bin firmware`) and the stress program build, the demo and fault-injection programs do not",
+                path.display()
+            );
+            println!("cargo:warning={why}");
+            println!("cargo:rustc-cfg=no_demo");
+            let out = PathBuf::from(env::var_os("OUT_DIR").ok_or("OUT_DIR")?).join("no_demo.rs");
+            fs::write(&out, format!("compile_error!({why:?});\nuse firmware as _;\n"))
+                .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+            let [x, y, z] = centre.position;
+            [x, y, z, 0.0, 0.0, 0.0]
+        }
+    };
+    let _ = writeln!(
+        s,
+        "/// Where the product's encoders' stand-in rests at start-up in QEMU, base frame, m and rad: the demo loop's start (the pose the end-to-end test homes with), or [`CENTRE`] without a demo.\npub const HOME: [f32; 6] = {};",
+        list(home.map(|x: f32| format!("{x:?}_f32"))),
+    );
+    Ok(s)
+}
+
+/// The demo trajectory's constant, `DEMO`.
+fn demo(s: &mut String, d: &cdpr_demo::derive::Derivation) {
     let p = d.params;
     let f = |x: f32| format!("{x:?}_f32");
     let _ = writeln!(
@@ -191,7 +234,6 @@ fn generate(path: &Path) -> Result<String, String> {
         f(p.excursion_ramp),
         f(p.excursion_hold),
     );
-    Ok(s)
 }
 
 /// The board's encoders count every cable the setpoint range allows

@@ -91,24 +91,25 @@ pub fn derive(robot: &Robot68) -> Result<Derivation, String> {
     })
 }
 
-/// Steps 1 and 2 of [`derive`]: the centre and the loop (no excursion:
-/// `excursion` is zero, `infeasible_run` 0). `hal-sim` builds its
-/// scenarios for a robot file on them.
-pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
-    let range = SetpointRange::for_robot(&to_f32(robot)?);
-    let margin = f64::from(SetpointRange::MARGIN);
-    let lo: [f64; 3] = core::array::from_fn(|k| f64::from(range.position_min[k]) + margin);
-    let hi: [f64; 3] = core::array::from_fn(|k| f64::from(range.position_max[k]) - margin);
-    let half: [f64; 3] = core::array::from_fn(|k| 0.5 * (hi[k] - lo[k]));
-    let span = robot
-        .limits()
-        .max()
-        .iter()
-        .zip(robot.limits().min().iter())
-        .map(|(h, l)| h - l)
-        .fold(f64::INFINITY, f64::min);
+/// Step 1 of [`derive`]: the static workspace's centre (see the module's
+/// description). The product firmware's QEMU build rests its encoders'
+/// stand-in there when the robot has no demo loop, and the stress set
+/// centres on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Centre {
+    /// The position, base frame, m (no rotation).
+    pub position: [f32; 3],
+    /// The static barycenter robustness there, N.
+    pub robustness: f64,
+}
 
-    // 1. The centre: of the static feasible poses on a grid over the box.
+/// Step 1 of [`derive`]: the centroid, rounded to the millimetre, of the
+/// positions on a 19 x 19 x 19 grid over the setpoint range's box where
+/// the static pose has barycenter tensions; an error says what the grid's
+/// poses gave, or that the centroid itself has none.
+pub fn centre(robot: &Robot68) -> Result<Centre, String> {
+    let (lo, hi) = grid_box(robot)?;
+    let half: [f64; 3] = core::array::from_fn(|k| 0.5 * (hi[k] - lo[k]));
     let steps = 19;
     let (mut sum, mut count) = ([0.0f64; 3], 0usize);
     // How many grid poses failed with each status, for the error.
@@ -156,12 +157,40 @@ pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
     }
     // Rounded to the millimetre, so that the constants read well.
     let centre = sum.map(|c| ((c / count as f64) * 1e3).round() / 1e3 + 0.0);
-    let centre_robustness = solve(robot, Method::Barycenter, &at_rest(centre))
+    let robustness = solve(robot, Method::Barycenter, &at_rest(centre))
         .map_err(|e| {
             format!("the centre of the static workspace {centre:?} is not feasible ({})", e.status())
         })?
         .robustness;
-    let centre = centre.map(|c| c as f32);
+    Ok(Centre { position: centre.map(|c| c as f32), robustness })
+}
+
+/// The box the centre's grid and the loop's amplitudes are taken from: the
+/// setpoint range's positions, [`SetpointRange::MARGIN`] inside.
+fn grid_box(robot: &Robot68) -> Result<([f64; 3], [f64; 3]), String> {
+    let range = SetpointRange::for_robot(&to_f32(robot)?);
+    let margin = f64::from(SetpointRange::MARGIN);
+    let lo: [f64; 3] = core::array::from_fn(|k| f64::from(range.position_min[k]) + margin);
+    let hi: [f64; 3] = core::array::from_fn(|k| f64::from(range.position_max[k]) - margin);
+    Ok((lo, hi))
+}
+
+/// Steps 1 and 2 of [`derive`]: the centre and the loop (no excursion:
+/// `excursion` is zero, `infeasible_run` 0). `hal-sim` builds its
+/// scenarios for a robot file on them.
+pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
+    let (lo, hi) = grid_box(robot)?;
+    let half: [f64; 3] = core::array::from_fn(|k| 0.5 * (hi[k] - lo[k]));
+    let span = robot
+        .limits()
+        .max()
+        .iter()
+        .zip(robot.limits().min().iter())
+        .map(|(h, l)| h - l)
+        .fold(f64::INFINITY, f64::min);
+
+    // 1. The centre: of the static feasible poses on a grid over the box.
+    let Centre { position: centre, robustness: centre_robustness } = self::centre(robot)?;
 
     // 2. The loop.
     let (start, ramp, hold) = EXCURSION_TIMES;

@@ -3,7 +3,7 @@
 //! for longer than a hold, the same numbers every time.
 #![cfg(feature = "std")]
 
-use cdpr_demo::derive::{derive, solve, Derivation, INFEASIBLE_CYCLES, MARGIN};
+use cdpr_demo::derive::{centre, derive, solve, Derivation, INFEASIBLE_CYCLES, MARGIN};
 use cdpr_demo::trajectory::{CYCLES, SCRIPT_CYCLES};
 use tension_core::{Error, Method};
 
@@ -170,4 +170,51 @@ fn a_tilted_frame_hangs_the_demo_as_deep() {
         (depth - base_depth).abs() < 0.25,
         "tilted {depth} m under the anchors, suspended-8 {base_depth} m"
     );
+}
+
+/// The static workspace's centre (`derive::centre`, which the firmware
+/// builds for every robot) is the demo's centre where there is a demo, and
+/// is found where there is none: suspended-8 with its first cable limited
+/// to 30-31 N has feasible static poses (the centre keeps 0.5 N to each
+/// limit of that cable) but no loop keeps 2 % of its 1 N range from them,
+/// so its product builds and its demo does not.
+#[test]
+fn the_centre_derives_without_a_demo() {
+    for file in ["robots/suspended-8.toml", "robots/ipanema1.toml"] {
+        let (robot, d) = derived(file);
+        let c = centre(&robot).unwrap();
+        assert_eq!(c.position, d.params.centre, "{file}");
+        assert_eq!(c.robustness, d.centre_robustness, "{file}");
+    }
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/suspended-8.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let first = "attach = [0.2, -0.15, 0.15]\n";
+    assert_eq!(text.matches(first).count(), 1);
+    let narrow = text.replacen(first, &format!("{first}t_min = 30.0\nt_max = 31.0\n"), 1);
+    let robot = robot_file::RobotFile::parse(&narrow).unwrap().to_robot::<f64, 6, 8>().unwrap();
+    assert_eq!((robot.limits().min()[0], robot.limits().max()[0]), (30.0, 31.0));
+    let e = derive(&robot).unwrap_err();
+    assert!(e.starts_with("no loop around the centre"), "{e}");
+    let c = centre(&robot).unwrap();
+    // Its barycenter tensions there: every cable inside its limits, the
+    // narrow one with most of its range to spare (robustness is the
+    // smallest distance to a limit, at most half the 1 N range).
+    let s = solve(&robot, Method::Barycenter, &at_rest(c.position)).unwrap();
+    assert_eq!(s.robustness, c.robustness);
+    println!("centre {:?}, robustness {} N, tensions {:?}", c.position, c.robustness, s.tensions.as_slice());
+    assert!(c.robustness > 0.1 && c.robustness <= 0.5, "{}", c.robustness);
+    for i in 0..8 {
+        assert!(s.tensions[i] >= robot.limits().min()[i] && s.tensions[i] <= robot.limits().max()[i]);
+    }
+    assert!(e.contains(&format!("{:?}", c.position)), "{e}");
+}
+
+fn at_rest(p: [f32; 3]) -> cdpr_control::setpoint::Setpoint {
+    let zero = tension_core::nalgebra::SVector::zeros();
+    cdpr_control::setpoint::Setpoint {
+        seq: 0,
+        pose: tension_core::nalgebra::SVector::from([p[0], p[1], p[2], 0.0, 0.0, 0.0]),
+        velocity: zero,
+        acceleration: zero,
+    }
 }

@@ -44,7 +44,7 @@ use cdpr_control::protocol::{encode, HostMessage, State};
 use cdpr_control::stats::{Running, Samples, Summary};
 use cdpr_control::{ControlLoop, Setpoint, StepReport, TickCounter, CABLES};
 use cdpr_demo::exit::{self, fail};
-use cdpr_demo::report::{self, Record, Report, Spread, MAX_STATES};
+use cdpr_demo::report::{Record, Report, Spread, MAX_STATES};
 use cdpr_demo::{methods, trajectory, BUDGET, EXPECTED_STATES, INJECT_AT};
 use tension_core::{Error, Method, WarmStart};
 
@@ -52,7 +52,7 @@ use crate::clock::{self, ticks_to_units as units, Tim2Counter};
 use crate::loopback::{self, DemoDrives};
 use crate::periodic::Releases;
 use crate::robot::DEMO;
-use crate::{bsp, drives, stack, Board};
+use crate::{bsp, drives, log_record, stack, Board};
 use canopen_drives::model::LoopbackRig;
 
 /// Cycles of the scripted run (the prelude and one loop of the trajectory).
@@ -87,15 +87,6 @@ impl Inject {
                 cortex_m::asm::udf();
             }
         }
-    }
-}
-
-/// Logs `record` on a line of its own, encoded (see [`cdpr_demo::report`]).
-pub fn log_record(record: &Record) {
-    let mut text = [0u8; report::MAX_TEXT];
-    match report::encode(record, &mut text) {
-        Ok(line) => defmt::println!("{=str}", line),
-        Err(_) => defmt::println!("a record did not fit its buffer"),
     }
 }
 

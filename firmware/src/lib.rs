@@ -23,7 +23,8 @@
 //!   USART1; [`stack`]: stack painting; [`state_log`]: the product's log
 //!   of state changes, written by the idle loop; [`robot`]: the robot's
 //!   constants, generated from its robot file;
-//! * [`demo`]: the demo run (the `demo` and `inject-*` programs), whose
+//! * `demo`: the demo run (the `demo` and `inject-*` programs; not for a
+//!   robot from which no demo trajectory derives), whose
 //!   drives ([`loopback`]) put the CiA 402 layer, its frames looped back
 //!   to drive models in memory, in front of the board's;
 //! * the panic and HardFault handlers: the drives stop first, then the
@@ -36,6 +37,8 @@ pub mod bsp;
 #[cfg(all(feature = "board", not(feature = "direct")))]
 pub mod can;
 pub mod clock;
+// Not for a robot with no demo trajectory (`build.rs` sets `no_demo`).
+#[cfg(not(no_demo))]
 pub mod demo;
 #[cfg(feature = "direct")]
 pub mod direct;
@@ -254,12 +257,21 @@ pub fn exit(code: i32) -> ! {
     bsp::exit(code)
 }
 
+/// Logs `record` on a line of its own, encoded (see [`cdpr_demo::report`]).
+pub fn log_record(record: &cdpr_demo::report::Record) {
+    let mut text = [0u8; cdpr_demo::report::MAX_TEXT];
+    match cdpr_demo::report::encode(record, &mut text) {
+        Ok(line) => defmt::println!("{=str}", line),
+        Err(_) => defmt::println!("a record did not fit its buffer"),
+    }
+}
+
 /// What the drives hold after the emergency stop, as a readable line and
 /// as the encoded record the test command decodes.
 fn report_stop() {
     let (torques, brakes) = drives::drive_outputs();
     defmt::error!("drives after the emergency stop: torques {} N m, brakes engaged {=bool}", torques, brakes);
-    demo::log_record(&cdpr_demo::report::Record::Stopped { torques, brakes });
+    log_record(&cdpr_demo::report::Record::Stopped { torques, brakes });
 }
 
 /// Stops the motors, logs the panic and exits with [`cdpr_demo::exit::PANIC`].

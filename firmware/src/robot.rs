@@ -1,7 +1,9 @@
 //! The robot the firmware drives, as constants generated at build time
 //! from its robot file (`robots/suspended-8.toml` unless `CDPR_ROBOT` names
 //! another; see `build.rs`): its numbers, its identity ([`IDENTITY`], the
-//! answer to `HostMessage::Identify`), its demo trajectory ([`DEMO`]),
+//! answer to `HostMessage::Identify`), its static workspace's centre
+//! ([`CENTRE`]), its demo trajectory (`DEMO`, when one derives from the
+//! file) and the product's start pose in QEMU ([`HOME`]),
 //! and the control loop's setpoint range and feedback bounds for it.
 
 use cdpr_control::control_loop::{DEFAULT_FEEDBACK_LIMITS, DEFAULT_JOINT_INTEGRAL_MAX};

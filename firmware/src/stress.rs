@@ -103,7 +103,7 @@ pub fn run(board: &mut Board, poses: u32) -> ! {
     let range = SetpointRange::for_robot(robot);
     let limits = *robot.limits();
     let tension_range = limits.max()[0] - limits.min()[0];
-    let centre = robot::DEMO.centre;
+    let centre = robot::CENTRE;
     let set = StressSet::new(range.position_min, range.position_max, range.angle_max, centre, tension_range);
     defmt::println!(
         "stress run: {=str}, {=u32} poses (uniform, border, angle limits, extra wrench up to {=f32} N / {=f32} N m, sequences), {=usize} methods",

@@ -81,6 +81,12 @@ fn shorten(why: &str) -> String {
     }
 }
 
+/// The target directory: `CARGO_TARGET_DIR` or `target`.
+pub fn target_dir() -> std::path::PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| std::path::PathBuf::from("target"), std::path::PathBuf::from)
+}
+
 /// Runs a command that counts as one check (formatting, lint, a build).
 pub fn check(name: &str, program: &str, args: &[&str]) -> Tally {
     let mut tally = Tally::default();

@@ -11,12 +11,13 @@
 //! figures the tests judge come from the records the programs log
 //! ([`cdpr_demo::report`]), not from their readable output.
 
-use crate::checks::{run_step, run_step_with, Tally};
+use crate::checks::{run_step, run_step_with, target_dir, Tally};
 use cdpr_demo::exit;
 use cdpr_demo::report::{self, Record, Report};
 use cdpr_demo::{methods, BUDGET, EXPECTED_STATES, FRAMING_LIMIT, PERIOD_INSTRUCTIONS, RECEIVE_LIMIT};
 use std::{
     ffi::OsStr,
+    fs,
     io::{BufRead, BufReader},
     os::unix::process::CommandExt,
     path::{Path, PathBuf},
@@ -317,6 +318,53 @@ pub fn test() -> Result<Tally, String> {
         );
     }
     Ok(tally)
+}
+
+/// A robot from which no demo trajectory derives still gets its product:
+/// suspended-8 with its first cable limited to 30-31 N (written to
+/// `target/xtask/`; static poses hold it, no loop keeps 2 % of that range
+/// from its limits). The product and the stress program must build for it
+/// (`cargo clippy`, which checks them and reuses the lint's build), and the
+/// demo program must refuse with the derivation's reason.
+pub fn no_demo_robot() -> Result<String, String> {
+    let text = fs::read_to_string(DEFAULT_ROBOT).map_err(|e| format!("{DEFAULT_ROBOT}: {e}"))?;
+    let first = "attach = [0.2, -0.15, 0.15]\n";
+    if text.matches(first).count() != 1 {
+        return Err(format!("{DEFAULT_ROBOT} no longer has its first cable's `{}`", first.trim()));
+    }
+    let narrow = text.replacen(first, &format!("{first}t_min = 30.0\nt_max = 31.0\n"), 1);
+    let dir = target_dir().join("xtask");
+    fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let file = dir.join("suspended-8-narrow-cable.toml");
+    fs::write(&file, narrow).map_err(|e| format!("{}: {e}", file.display()))?;
+    let robot = robot_path(&file.to_string_lossy())?;
+    let vars = [("CDPR_ROBOT", robot.as_os_str())];
+    let lint = |bins: &[&str]| {
+        let mut args = vec!["clippy", "-p", "firmware", "--target", TARGET];
+        for bin in bins {
+            args.extend(["--bin", bin]);
+        }
+        args.extend(["--", "-D", "warnings"]);
+        args.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let products = lint(&[PRODUCT, STRESS]);
+    run_step_with(CARGO, &products.iter().map(String::as_str).collect::<Vec<_>>(), &vars)?;
+    let demo = lint(&[DEMO]);
+    println!("==> cargo {} (must fail)", demo.join(" "));
+    let out =
+        Command::new(CARGO).args(&demo).envs(vars).output().map_err(|e| format!("cannot run cargo: {e}"))?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let reason = "no demo trajectory (no loop around the centre";
+    match stderr.lines().find(|l| l.starts_with("error: ") && l.contains(reason)) {
+        Some(line) if !out.status.success() => {
+            Ok(format!("the demo program refuses: {}", line.trim_start_matches("error: ")))
+        }
+        _ => Err(format!(
+            "the demo program for {} should refuse with \"{reason}\" ({}): {stderr}",
+            robot.display(),
+            out.status
+        )),
+    }
 }
 
 /// The build-time variable that puts the drive layer in the demo's measured

@@ -235,6 +235,10 @@ fn test() {
             ],
         ));
     }
+    tally.report(
+        "firmware: a robot with no demo trajectory gets its product and stress programs (clippy-checked), and its demo program says why not",
+        firmware::no_demo_robot(),
+    );
     tally.add(check(
         "tension-core builds for the board (no_std)",
         cargo,

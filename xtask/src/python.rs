@@ -29,17 +29,12 @@ use std::{
     time::Instant,
 };
 
-use crate::checks::{check, run_step_with, Tally};
+use crate::checks::{check, run_step_with, target_dir, Tally};
 
 /// The pinned requirements (relative to the workspace root).
 const REQUIREMENTS: &str = "python/requirements-test.txt";
 /// The stamp in the environment: the requirements it was made with.
 const STAMP: &str = ".cdpr-requirements";
-
-/// The target directory: `CARGO_TARGET_DIR` or `target`.
-fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| PathBuf::from("target"), PathBuf::from)
-}
 
 /// Runs the Python part; see the module's text.
 pub fn test() -> Tally {

@@ -6,6 +6,11 @@
 #![no_std]
 #![no_main]
 
+// A robot with no demo trajectory: the build says why (`build.rs`).
+#[cfg(no_demo)]
+include!(concat!(env!("OUT_DIR"), "/no_demo.rs"));
+
+#[cfg(not(no_demo))]
 #[rtic::app(device = stm32f4::stm32f405, dispatchers = [SPI1])]
 mod app {
     use canopen_drives::model::LoopbackRig;

@@ -58,8 +58,9 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         let (board, rest) = Board::start_in(cx.local.board_slot, cx.device);
         // QEMU: the encoders' stand-in rests where the demo trajectory
-        // starts (the pose the end-to-end test homes with).
-        board.place_stand_in(firmware::robot::DEMO.setpoint(0).pose.into());
+        // starts (the pose the end-to-end test homes with), or at the
+        // static workspace's centre for a robot with no demo.
+        board.place_stand_in(firmware::robot::HOME);
         let (rx_in, rx) = cx.local.rx_queue.split();
         let (tx, tx_out) = cx.local.tx_queue.split();
         let (changes, change_log) = cx.local.change_queue.split();
