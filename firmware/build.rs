@@ -167,6 +167,12 @@ fn generate(path: &Path) -> Result<String, String> {
         "/// `[winch] can_bus` per cable, 0-based (0 CAN1, 1 CAN2).\npub const DRIVE_BUSES: [u8; CABLES] = {};",
         list(file.drives.bus_indices().iter().map(|b| b.to_string()))
     );
+    let _ = writeln!(
+        s,
+        "/// `[control] bandwidth`, Hz: both feedback schemes' closed-loop poles at `-2 pi` this (`robot_file::RobotFile::bandwidth_hz`; {} Hz when the file does not say).\npub const BANDWIDTH_HZ: f32 = {};",
+        RobotFile::DEFAULT_BANDWIDTH_HZ,
+        lit(file.bandwidth_hz())
+    );
     let identity = file.identity();
     let _ = writeln!(
         s,

@@ -327,6 +327,30 @@ pub struct ControlLoop {
     identify: bool,
 }
 
+/// Both feedback schemes' gains, the triple pole at `-omega` (rad/s): the
+/// task-space PID's for the platform's mass and the diagonal of its
+/// inertia, and the joint-space PID's at the centre of `range`'s box,
+/// unrotated (`None` where that pose has no kinematics).
+fn feedback_gains(
+    robot: &ControlRobot,
+    range: &SetpointRange,
+    omega: f32,
+    joint_integral_max: f32,
+) -> (Gains, Option<JointGains>) {
+    let platform = robot.platform();
+    let inertia = [platform.inertia[(0, 0)], platform.inertia[(1, 1)], platform.inertia[(2, 2)]];
+    let gains = Gains::triple_pole(platform.mass, inertia, omega, omega);
+    let centre = Pose6::new(
+        0.5 * (range.position_min[0] + range.position_max[0]),
+        0.5 * (range.position_min[1] + range.position_max[1]),
+        0.5 * (range.position_min[2] + range.position_max[2]),
+        0.0,
+        0.0,
+        0.0,
+    );
+    (gains, JointGains::triple_pole(robot, &centre, omega, joint_integral_max).ok())
+}
+
 impl ControlLoop {
     /// A loop for `robot` with `method`, accepting setpoints within `range`,
     /// with the supervisor's `limits`. Starts Disabled, unhomed, with
@@ -358,20 +382,8 @@ impl ControlLoop {
         let scale = EncoderScale::with_defaults(winch.drum_radius, winch.gear_ratio)
             .and_then(|scale| scale.check_reach(range.longest_cable(&robot)).map(|()| scale))
             .map_err(|_| Error::InvalidLimits)?;
-        let platform = robot.platform();
-        let inertia = [platform.inertia[(0, 0)], platform.inertia[(1, 1)], platform.inertia[(2, 2)]];
-        let gains = Gains::triple_pole(platform.mass, inertia, DEFAULT_OMEGA, DEFAULT_OMEGA);
-        let centre = Pose6::new(
-            0.5 * (range.position_min[0] + range.position_max[0]),
-            0.5 * (range.position_min[1] + range.position_max[1]),
-            0.5 * (range.position_min[2] + range.position_max[2]),
-            0.0,
-            0.0,
-            0.0,
-        );
-        let joint_pid = JointGains::triple_pole(&robot, &centre, DEFAULT_OMEGA, DEFAULT_JOINT_INTEGRAL_MAX)
-            .ok()
-            .and_then(|gains| JointPid::new(gains).ok());
+        let (gains, joint_gains) = feedback_gains(&robot, &range, DEFAULT_OMEGA, DEFAULT_JOINT_INTEGRAL_MAX);
+        let joint_pid = joint_gains.and_then(|gains| JointPid::new(gains).ok());
         Ok(Self {
             scale,
             homing: None,
@@ -507,6 +519,38 @@ impl ControlLoop {
     /// The feedback scheme in use.
     pub fn scheme(&self) -> Scheme {
         self.scheme
+    }
+
+    /// Both feedback schemes' gains for a closed-loop bandwidth of
+    /// `hertz` (the robot file's `[control] bandwidth`): the triple pole
+    /// at `-2 pi hertz` that [`ControlLoop::new`] places at
+    /// [`DEFAULT_OMEGA`], for the same rigid body and the same pose; the
+    /// task-space bounds and the joint-space integral bound stay, and both
+    /// integrals restart. [`Error::InvalidLimits`] for a bandwidth that is
+    /// not finite and positive (nothing changes then). Out of line, as the
+    /// other start-up settings are (the firmware's start-up frame).
+    #[inline(never)]
+    pub fn set_bandwidth(&mut self, hertz: f32) -> Result<(), Error> {
+        let omega = 2.0 * core::f32::consts::PI * hertz;
+        if !(omega.is_finite() && omega > 0.0) {
+            return Err(Error::InvalidLimits);
+        }
+        let integral_max =
+            self.joint_pid.as_ref().map_or(DEFAULT_JOINT_INTEGRAL_MAX, |p| p.gains().integral_max);
+        let (gains, joint) = feedback_gains(self.controller.robot(), self.link.range(), omega, integral_max);
+        let task = TaskPid::new(gains, *self.task_pid.limits())?;
+        // Only where the scheme was offered: a robot refused it for its
+        // pose keeps it refused.
+        let joint = match (&self.joint_pid, joint) {
+            (Some(_), Some(gains)) => Some(JointPid::new(gains)?),
+            _ => None,
+        };
+        self.set_task_pid(task);
+        self.joint_pid = joint;
+        if self.joint_pid.is_none() && self.scheme == Scheme::JointSpace {
+            self.scheme = Scheme::FeedForward;
+        }
+        Ok(())
     }
 
     /// The task-space PID (gains and bounds; its integral restarts).

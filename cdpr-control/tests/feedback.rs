@@ -222,3 +222,54 @@ fn joint_pid_bound_is_checked_never_trusted() {
     );
     assert!(refused >= 2 && bounded > 2_000, "{refused} {bounded}");
 }
+
+/// `ControlLoop::set_bandwidth` (the robot file's `[control] bandwidth`):
+/// both schemes' gains are the triple pole at `-2 pi f` worked out here
+/// from the formulas (`Kp = 3 m w^2`, `Kd = 3 m w`, `Ki = m w^3`; the
+/// joint-space gains divided by the smallest `sum_i W_ki^2` of the
+/// translations at the range's centre), the bounds stay, and a bandwidth
+/// that is not finite and positive changes nothing.
+#[test]
+fn a_bandwidth_places_both_schemes_poles() {
+    // The board's default is the robot file's.
+    let default_hz = robot_file::RobotFile::DEFAULT_BANDWIDTH_HZ as f32;
+    assert_eq!(cdpr_control::control_loop::DEFAULT_OMEGA, 2.0 * std::f32::consts::PI * default_hz);
+    let robot = common::suspended8();
+    let mut control = common::control_loop();
+    let limits = *control.task_pid().limits();
+    let integral_max = control.joint_pid().unwrap().gains().integral_max;
+    let range = common::setpoint_range();
+    let centre: [f32; 3] = core::array::from_fn(|k| 0.5 * (range.position_min[k] + range.position_max[k]));
+    let w = robot.wrench_matrix(&Pose6::from([centre[0], centre[1], centre[2], 0.0, 0.0, 0.0])).unwrap();
+    let s = (0..3)
+        .map(|k| (0..8).map(|i| f64::from(w[(k, i)]).powi(2)).sum::<f64>())
+        .fold(f64::INFINITY, f64::min);
+    let m = f64::from(robot.platform().mass);
+    let inertia = [0.05, 0.05, 0.08]; // suspended-8's file
+    let close = |got: f32, want: f64| (f64::from(got) - want).abs() <= 1e-5 * want.abs();
+    for hz in [0.5f32, 2.0, 5.0, 12.5, 20.0] {
+        control.set_bandwidth(hz).unwrap();
+        let o = 2.0 * std::f64::consts::PI * f64::from(hz);
+        let g = control.task_pid().gains();
+        for k in 0..6 {
+            let mass = if k < 3 { m } else { inertia[k - 3] };
+            assert!(close(g.kp[k], 3.0 * mass * o * o), "{hz} Hz kp[{k}] {}", g.kp[k]);
+            assert!(close(g.kd[k], 3.0 * mass * o), "{hz} Hz kd[{k}] {}", g.kd[k]);
+            assert!(close(g.ki[k], mass * o * o * o), "{hz} Hz ki[{k}] {}", g.ki[k]);
+        }
+        assert_eq!(control.task_pid().limits(), &limits);
+        let j = control.joint_pid().unwrap().gains();
+        assert!(
+            close(j.kp, 3.0 * m * o * o / s)
+                && close(j.kd, 3.0 * m * o / s)
+                && close(j.ki, m * o * o * o / s),
+            "{hz} Hz {j:?}"
+        );
+        assert_eq!(j.integral_max, integral_max);
+    }
+    let (task, joint) = (*control.task_pid(), control.joint_pid().copied());
+    for bad in [0.0, -2.0, f32::NAN, f32::INFINITY, f32::MAX] {
+        assert_eq!(control.set_bandwidth(bad), Err(tension_core::Error::InvalidLimits), "{bad}");
+        assert_eq!((*control.task_pid(), control.joint_pid().copied()), (task, joint), "{bad}");
+    }
+}

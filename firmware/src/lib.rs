@@ -121,21 +121,57 @@ pub type Can1Irq = ();
 #[cfg(any(not(feature = "board"), feature = "direct"))]
 pub type Can2Irq = ();
 
+/// The feedback for the robot file: its bandwidth (`[control]
+/// bandwidth`), then its bounds scaled to the platform's weight. Out of
+/// line: inlined into [`Board::start`] it grew that frame (12 928 ->
+/// 15 232 bytes, past the stack limit).
+#[inline(never)]
+fn configure_feedback(control: &mut ControlLoop) {
+    if let Err(e) = control.set_bandwidth(robot::BANDWIDTH_HZ) {
+        panic!("feedback bandwidth rejected: {}", e.status());
+    }
+    let gains = *control.task_pid().gains();
+    match TaskPid::new(gains, robot::feedback_limits()) {
+        Ok(pid) => control.set_task_pid(pid),
+        Err(e) => panic!("feedback limits rejected: {}", e.status()),
+    }
+    let joint = control
+        .joint_pid()
+        .map(|pid| JointGains { integral_max: robot::joint_integral_max(), ..*pid.gains() });
+    if let Err(e) = control.set_joint_gains(joint) {
+        panic!("joint-space integral bound rejected: {}", e.status());
+    }
+}
+
 impl Board {
     /// [`Self::start`] into `slot` (a static of the program's `init`): the
     /// board (about 6 KB with the control loop and the solver's room) is
     /// moved through this function's frame, which is gone before `init`
     /// goes on (e.g. to build the demo's drive models), so the two never
     /// sit on the stack together.
+    ///
+    /// The feedback's settings ([`configure_feedback`]) come after
+    /// `start`'s frame (12 928 bytes) is gone: under it they took the
+    /// product's stack 13 856 -> 14 336 bytes.
     #[inline(never)]
     pub fn start_in(slot: &'static mut Option<Board>, dp: Peripherals) -> (&'static mut Board, Rest) {
+        let (board, rest) = Self::start_in_slot(slot, dp);
+        configure_feedback(&mut board.control);
+        (board, rest)
+    }
+
+    /// [`Self::start`] into `slot`, in a frame of its own.
+    #[inline(never)]
+    fn start_in_slot(slot: &'static mut Option<Board>, dp: Peripherals) -> (&'static mut Board, Rest) {
         let (board, rest) = Self::start(dp);
         (slot.insert(board), rest)
     }
 
     /// Brings the board up: stack painting, the board's clocks, TIM2 and
-    /// its calibration, the monotonic on TIM5 and the control loop.
-    /// Panics if the robot's constants do not form a valid robot.
+    /// its calibration, the monotonic on TIM5 and the control loop, its
+    /// feedback at the loop's defaults ([`Self::start_in`] then sets the
+    /// robot file's; the stress program, which runs no feedback, keeps
+    /// them). Panics if the robot's constants do not form a valid robot.
     pub fn start(dp: Peripherals) -> (Self, Rest) {
         stack::paint_stack();
         bsp::configure_clocks(&dp.RCC, &dp.FLASH);
@@ -151,18 +187,6 @@ impl Board {
         };
         // Only the methods whose worst case fits the step budget.
         control.offer_only(cdpr_demo::methods::offered());
-        // The feedback's bounds scaled to the platform's weight.
-        let gains = *control.task_pid().gains();
-        match TaskPid::new(gains, robot::feedback_limits()) {
-            Ok(pid) => control.set_task_pid(pid),
-            Err(e) => panic!("feedback limits rejected: {}", e.status()),
-        }
-        let joint = control
-            .joint_pid()
-            .map(|pid| JointGains { integral_max: robot::joint_integral_max(), ..*pid.gains() });
-        if let Err(e) = control.set_joint_gains(joint) {
-            panic!("joint-space integral bound rejected: {}", e.status());
-        }
         // `build.rs` refuses a robot file whose encoders these refuse.
         if let Err(e) = robot::encoder_scale().and_then(|scale| control.set_encoder(scale)) {
             panic!("robot file's encoders rejected: {:?}", e);

@@ -445,7 +445,12 @@ pub struct Config {
     pub dt: f64,
     /// Cable-length tracking limit of `ControlLoop::step` (`set_tracking_limit`), m.
     pub length_limit: f32,
-    /// PID gains.
+    /// The feedback's bandwidth, Hz (the robot file's `[control]
+    /// bandwidth`, as on the board): the joint-space PID's triple pole
+    /// (`ControlLoop::set_bandwidth`); [`Config::for_site`] puts `gains`'
+    /// there too.
+    pub bandwidth_hz: f32,
+    /// The task-space PID's gains.
     pub gains: Gains,
     /// PID limits.
     pub limits: FeedbackLimits,
@@ -483,10 +488,6 @@ pub const fn friction_estimate(winch: WinchModel) -> FrictionCompensation {
     }
 }
 
-/// Closed-loop bandwidth of the PID's translations and rotations: the
-/// triple pole at `-2 pi 5 Hz` (see `hal-sim/README.md`).
-pub const OMEGA: f32 = 2.0 * core::f32::consts::PI * 5.0;
-
 impl Config {
     /// The settings of `hal-sim/README.md` for suspended-8 (panics if the
     /// shipped robot file cannot be read).
@@ -495,24 +496,29 @@ impl Config {
     }
 
     /// The settings of `hal-sim/README.md` for `site`'s robot: the gains
-    /// from its platform, the feedback's bounds scaled by its weight
+    /// from its platform (the triple pole at its file's bandwidth, 5 Hz
+    /// unless `[control] bandwidth` says otherwise), the feedback's bounds scaled by its weight
     /// ([`Site::weight_scale`]: the firmware's rule), the winches'
     /// inertia and friction scaled by their motors ([`Site::motor_scale`]).
     pub fn for_site(site: &Site) -> Result<Self, String> {
-        let robot = load_robot(&site.file)?;
+        let file = read_robot_file(&site.file)?;
+        let robot: PlantRobot = robot_of(&file, &site.file)?;
+        let bandwidth_hz = file.bandwidth_hz() as f32;
+        let omega = 2.0 * core::f32::consts::PI * bandwidth_hz;
         let platform = robot.platform();
         let mass = platform.mass as f32;
         let inertia = platform.inertia.map(|x| x as f32);
         let k = site.weight_scale as f32;
         let winch = WinchModel::DEFAULT.scaled(site.motor_scale);
         Ok(Self {
+            bandwidth_hz,
             dt: 1.0e-4,
             length_limit: 0.02,
             gains: Gains::triple_pole(
                 mass,
                 [inertia[(0, 0)], inertia[(1, 1)], inertia[(2, 2)]],
-                OMEGA,
-                OMEGA,
+                omega,
+                omega,
             ),
             limits: FeedbackLimits {
                 force_max: 50.0 * k,
@@ -723,6 +729,7 @@ pub fn run(scenario: &Scenario, config: &Config) -> Result<Outcome, String> {
     let range = SetpointRange::for_robot(&controller_robot);
     let mut control = ControlLoop::new(controller_robot, Method::Barycenter, range, SafetyLimits::DEFAULT)
         .map_err(|e| format!("control loop: {}", e.status()))?;
+    control.set_bandwidth(config.bandwidth_hz).map_err(|e| format!("bandwidth: {}", e.status()))?;
     control.controller_mut().set_friction(config.friction);
     control.set_encoder(scale).map_err(|e| format!("{}: [winch]: {e}", path.display()))?;
     control.set_task_pid(

@@ -180,6 +180,14 @@ struct WinchToml {
     can_bus: Option<Spanned<Vec<i64>>>,
 }
 
+/// `[control]`: the board's feedback settings.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ControlToml {
+    #[serde(default)]
+    bandwidth: Option<Spanned<f64>>,
+}
+
 /// `encoder_sign`: one sign for every cable, or one per cable.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(untagged)]
@@ -208,6 +216,8 @@ struct RobotToml {
     platform: Spanned<PlatformToml>,
     #[serde(default)]
     winch: Option<Spanned<WinchToml>>,
+    #[serde(default)]
+    control: Option<ControlToml>,
     cable: Vec<Spanned<CableToml>>,
 }
 
@@ -313,11 +323,35 @@ pub struct RobotFile {
     /// The winch drives' bus addresses and rated torque (`[winch]`'s
     /// `rated_torque`, `node_id`, `can_bus`; defaults when absent).
     pub drives: DriveSpec,
+    /// `[control] bandwidth`, Hz, when the file sets it: where the board's
+    /// feedback puts its closed-loop poles ([`RobotFile::bandwidth_hz`]).
+    pub bandwidth: Option<f64>,
     /// The cables in file order.
     pub cables: Vec<CableSpec>,
 }
 
 impl RobotFile {
+    /// The board's feedback bandwidth when the file does not set
+    /// `[control] bandwidth`, Hz (both feedback schemes' triple pole at
+    /// `-2 pi 5` rad/s; `cdpr_control::control_loop::DEFAULT_OMEGA`).
+    pub const DEFAULT_BANDWIDTH_HZ: f64 = 5.0;
+    /// The largest `[control] bandwidth`, Hz: the board's loop runs at
+    /// 1 kHz with up to 1.8 ms from a reading to its torque (a cycle and
+    /// the CAN buses' 0.83 ms), which costs a triple pole at 20 Hz about
+    /// 40 degrees of phase at its crossover (three times the pole).
+    pub const MAX_BANDWIDTH_HZ: f64 = 20.0;
+
+    /// The feedback's bandwidth, Hz: `[control] bandwidth`, or
+    /// [`Self::DEFAULT_BANDWIDTH_HZ`]. Both of the board's feedback schemes
+    /// place their three closed-loop poles per axis at `-2 pi bandwidth`
+    /// (`cdpr_control::feedback::Gains::triple_pole`,
+    /// `JointGains::triple_pole`). A heavy platform on heavy winches and
+    /// long cables needs it lower than the default: its drums on its
+    /// cables ring at a lower frequency.
+    pub fn bandwidth_hz(&self) -> f64 {
+        self.bandwidth.unwrap_or(Self::DEFAULT_BANDWIDTH_HZ)
+    }
+
     /// Reads and parses a file; errors name the file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, RobotFileError> {
         let path = path.as_ref();
@@ -372,6 +406,7 @@ impl RobotFile {
             }),
             encoder: encoder_spec(text, raw.winch.as_ref().map(Spanned::get_ref), raw.cable.len())?,
             drives: drive_spec(text, raw.winch.as_ref().map(Spanned::get_ref), raw.cable.len())?,
+            bandwidth: bandwidth(text, raw.control.as_ref())?,
             cables: raw
                 .cable
                 .iter()
@@ -553,7 +588,8 @@ impl RobotFile {
     /// limit, `counts_per_revolution`, the number of cables, each
     /// cable's `encoder_sign`, anchor, attachment, `t_min`, `t_max`
     /// (per-cable limits as resolved: a file-wide limit and the same
-    /// value repeated per cable are the same robot). Where a value comes
+    /// value repeated per cable are the same robot); then, only when the
+    /// file sets them, the drives' keys and `[control] bandwidth`. Where a value comes
     /// from (defaults, overrides), whitespace, comments, key order and
     /// number spelling (`2`, `2.0`, `2e0`) do not enter it.
     pub fn canonical_bytes(&self) -> Vec<u8> {
@@ -593,6 +629,12 @@ impl RobotFile {
             out.extend(&self.drives.node_ids);
             out.extend(&self.drives.buses);
         }
+        // The feedback's bandwidth only when the file sets it (files
+        // without it keep the identity they had before the key existed).
+        if let Some(hz) = self.bandwidth {
+            text(&mut out, "control v1");
+            num(&mut out, hz);
+        }
         out
     }
 
@@ -603,6 +645,27 @@ impl RobotFile {
     pub fn identity(&self) -> RobotIdentity {
         RobotIdentity { name: self.name.clone(), hash: fnv1a64(&self.canonical_bytes()) }
     }
+}
+
+/// `[control] bandwidth`, checked: finite, above 0 and at most
+/// [`RobotFile::MAX_BANDWIDTH_HZ`].
+fn bandwidth(text: &str, control: Option<&ControlToml>) -> Result<Option<f64>, RobotFileError> {
+    let Some(value) = control.and_then(|c| c.bandwidth.as_ref()) else {
+        return Ok(None);
+    };
+    let hz = *value.get_ref();
+    if hz.is_finite() && hz > 0.0 && hz <= RobotFile::MAX_BANDWIDTH_HZ {
+        return Ok(Some(hz));
+    }
+    let what = format!(
+        "[control] bandwidth = {} Hz must be above 0 and at most {} (the board's 1 kHz loop and its delay)",
+        Readable(hz),
+        RobotFile::MAX_BANDWIDTH_HZ
+    );
+    Err(RobotFileError::new(
+        RobotFileErrorKind::Format(what),
+        Some(Location::of_offset(text, value.span().start)),
+    ))
 }
 
 /// `[winch]`'s encoder keys, checked: `counts_per_revolution` a positive
@@ -845,6 +908,34 @@ attach = [0.0, 0.0, 0.0]
         let none = base.split("[winch]").next().unwrap().to_string()
             + &"[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n".repeat(3);
         assert_eq!(RobotFile::parse(&none).unwrap().encoder.signs, vec![1, 1, 1]);
+    }
+
+    /// `[control] bandwidth`: the default when absent, the value when set,
+    /// each refusal with its line, and the identity: unchanged without the
+    /// key (the shipped files' hashes stay), changed by any value.
+    #[test]
+    fn control_bandwidth() {
+        let base = "name = \"t\"\nkind = \"planar2\"\n[limits]\nt_min = 1.0\nt_max = 10.0\n[platform]\nmass = 2.0\ngravity = [0.0, -9.81, 0.0]\n[[cable]]\nanchor = [0.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n[[cable]]\nanchor = [1.0, 0.0, 0.0]\nattach = [0.0, 0.0, 0.0]\n";
+        let plain = RobotFile::parse(base).unwrap();
+        assert_eq!((plain.bandwidth, plain.bandwidth_hz()), (None, 5.0));
+        let with = |keys: &str| RobotFile::parse(&format!("{base}[control]\n{keys}\n"));
+        let two = with("bandwidth = 2").unwrap();
+        assert_eq!((two.bandwidth, two.bandwidth_hz()), (Some(2.0), 2.0));
+        assert_eq!(with("bandwidth = 20.0").unwrap().bandwidth, Some(20.0));
+        // An empty table is the default, and the same robot.
+        assert_eq!(with("").unwrap().identity(), plain.identity());
+        assert_ne!(two.identity(), plain.identity());
+        assert_ne!(two.identity(), with("bandwidth = 2.5").unwrap().identity());
+        assert_eq!(two.identity(), with("bandwidth = 2e0").unwrap().identity());
+        for bad in
+            ["bandwidth = 0", "bandwidth = -1.0", "bandwidth = 20.001", "bandwidth = nan", "bandwidth = inf"]
+        {
+            let err = with(bad).unwrap_err();
+            assert_eq!(err.at.map(|at| at.line), Some(16), "{bad}: {err}");
+            assert!(err.to_string().contains("[control] bandwidth"), "{bad}: {err}");
+        }
+        let err = with("gain = 3").unwrap_err();
+        assert!(err.to_string().contains("unknown field `gain`"), "{err}");
     }
 
     /// `[winch]`'s drive keys: the default split over the two buses,
