@@ -78,9 +78,10 @@ fn generate(path: &Path) -> Result<String, String> {
     let winch = file.winch.ok_or("no [winch]: the firmware commands motor torques")?;
     let board_robot =
         file.to_robot::<f32, DOF, CABLES>().map_err(|e| format!("{e} (in f32, as on the board)"))?;
-    check_encoders(&file, &board_robot, winch)?;
-    // The control loop refuses tension limits its winches cannot pull.
-    cdpr_control::controller::check_winch_reach(&board_robot).map_err(|e| format!("[winch]: {e}"))?;
+    // What the control loop would refuse at start-up: encoders that do not
+    // count the longest cable, winches that do not pull `t_max`.
+    let scale = encoder_scale(&file, winch)?;
+    cdpr_control::control_loop::check_board_robot(&board_robot, &scale).map_err(|e| e.to_string())?;
     // The CAN drives' builds (not the direct path's).
     if env::var_os("CARGO_FEATURE_DIRECT").is_none() {
         canopen_drives::check_layout(&file.drives.bus_indices())
@@ -242,20 +243,16 @@ fn demo(s: &mut String, d: &cdpr_demo::derive::Derivation) {
     );
 }
 
-/// The board's encoders count every cable the setpoint range allows
-/// (`cdpr_control::encoder::EncoderScale::check_reach`, which the firmware
-/// repeats at start-up), in `f32` as the board does.
-fn check_encoders(
-    file: &RobotFile,
-    robot: &cdpr_control::ControlRobot,
-    winch: [f64; 4],
-) -> Result<(), String> {
-    use cdpr_control::encoder::EncoderScale;
-    use cdpr_control::link::SetpointRange;
+/// The file's encoders as the board reads them (in `f32`, as the board
+/// does; the firmware builds the same from the generated constants).
+fn encoder_scale(file: &RobotFile, winch: [f64; 4]) -> Result<cdpr_control::encoder::EncoderScale, String> {
     let signs = <[i8; CABLES]>::try_from(file.encoder.signs.as_slice())
         .map_err(|_| format!("[winch] encoder_sign: not one per cable of {CABLES}"))?;
-    let longest = SetpointRange::for_robot(robot).longest_cable(robot);
-    EncoderScale::new(winch[0] as f32, winch[1] as f32, file.encoder.counts_per_revolution, signs)
-        .and_then(|scale| scale.check_reach(longest))
-        .map_err(|e| format!("[winch]: {e}"))
+    cdpr_control::encoder::EncoderScale::new(
+        winch[0] as f32,
+        winch[1] as f32,
+        file.encoder.counts_per_revolution,
+        signs,
+    )
+    .map_err(|e| format!("[winch]: {e}"))
 }

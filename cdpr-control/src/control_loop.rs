@@ -327,6 +327,40 @@ pub struct ControlLoop {
     identify: bool,
 }
 
+/// Why the board refuses its robot with the robot file's encoders
+/// ([`check_board_robot`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RobotRefusal {
+    /// The encoders' 32-bit counts do not reach the longest cable of the
+    /// setpoint range ([`EncoderScale::check_reach`]).
+    Encoders(ScaleError),
+    /// A winch cannot pull its cable's `t_max`
+    /// ([`crate::controller::check_winch_reach`]).
+    Winch(crate::controller::WinchReachError),
+}
+
+impl core::fmt::Display for RobotRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Encoders(e) => write!(f, "[winch]: {e}"),
+            Self::Winch(e) => write!(f, "[winch]: {e}"),
+        }
+    }
+}
+
+/// What the board refuses of its robot with the file's encoders `scale`,
+/// checked before anything runs (the firmware's build, `hal-sim`): the
+/// encoders must count the longest cable of the robot's setpoint range
+/// ([`SetpointRange::for_robot`]) and every winch must pull its cable's
+/// `t_max`. [`ControlLoop::new`] and [`ControlLoop::set_encoder`] repeat
+/// both at run time. Out of line, as the start-up's other checks are.
+#[inline(never)]
+pub fn check_board_robot(robot: &ControlRobot, scale: &EncoderScale) -> Result<(), RobotRefusal> {
+    let longest = SetpointRange::for_robot(robot).longest_cable(robot);
+    scale.check_reach(longest).map_err(RobotRefusal::Encoders)?;
+    crate::controller::check_winch_reach(robot).map_err(RobotRefusal::Winch)
+}
+
 /// Both feedback schemes' gains, the triple pole at `-omega` (rad/s): the
 /// task-space PID's for the platform's mass and the diagonal of its
 /// inertia, and the joint-space PID's at the centre of `range`'s box,

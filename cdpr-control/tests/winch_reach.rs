@@ -139,3 +139,28 @@ fn the_check_is_the_torque_that_t_max_needs_against_torque_max() {
     assert!(advice_checked > refused / 2, "{advice_checked} of {refused}");
     println!("{refused} refused ({advice_checked} advices checked), {taken} taken of {cases}");
 }
+
+/// `check_board_robot`, the board's checks as its build and `hal-sim` make
+/// them: suspended-8 with its file's encoders passes; its winches at
+/// 0.12 N m are refused for the winches, its encoders at 2^31 counts a turn
+/// (3.1 cm of cable in 2^31 counts) for the encoders, each with the
+/// underlying check's own error and `[winch]: ` in front.
+#[test]
+fn the_board_refuses_its_robot_for_its_winches_or_its_encoders() {
+    use cdpr_control::control_loop::{check_board_robot, RobotRefusal};
+    use cdpr_control::encoder::EncoderScale;
+    let robot = common::suspended8();
+    let scale = EncoderScale::new(0.04, 8.0, 4096, [1; 8]).unwrap();
+    assert_eq!(check_board_robot(&robot, &scale), Ok(()));
+    let weak = with(Winch::new(0.04, 8.0, 0.9, 0.12).unwrap(), [350.0; 8]);
+    let e = check_board_robot(&weak, &scale).unwrap_err();
+    assert_eq!(e, RobotRefusal::Winch(check_winch_reach(&weak).unwrap_err()));
+    assert_eq!(e.to_string(), format!("[winch]: {}", check_winch_reach(&weak).unwrap_err()));
+    let fine = EncoderScale::new(0.04, 8.0, 1 << 31, [1; 8]).unwrap();
+    let longest = cdpr_control::link::SetpointRange::for_robot(&robot).longest_cable(&robot);
+    let e = check_board_robot(&robot, &fine).unwrap_err();
+    assert_eq!(e, RobotRefusal::Encoders(fine.check_reach(longest).unwrap_err()));
+    assert!(e.to_string().starts_with("[winch]: ") && e.to_string().contains("0.031 m"), "{e}");
+    // Both wrong: the encoders are named first, as the build says them.
+    assert!(matches!(check_board_robot(&weak, &fine), Err(RobotRefusal::Encoders(_))));
+}

@@ -125,17 +125,14 @@ impl Site {
         let parsed = robot_file::RobotFile::load(file).map_err(|e| format!("{shown}: {e}"))?;
         let robot: Robot68 =
             parsed.to_robot().map_err(|e| format!("{shown}: {e} (hal-sim simulates 6 DOF x 8 cables)"))?;
-        // The board's range, from the robot in its f32; its encoders count
-        // the range's longest cable (the control loop's checks, made here
-        // so that no scenario starts).
+        // What the board refuses of the robot in its f32 (the control
+        // loop's checks, made here so that no scenario starts).
         let robot32 =
             parsed.to_robot::<f32, 6, 8>().map_err(|e| format!("{shown}: {e} (in the board's f32)"))?;
-        let range = SetpointRange::for_robot(&robot32);
         let (scale, _, _) = crate::scenario::encoders_of(&parsed, file)?;
-        scale.check_reach(range.longest_cable(&robot32)).map_err(|e| format!("{shown}: [winch]: {e}"))?;
-        // Its winches pull its tension limits (the controller's check).
-        cdpr_control::controller::check_winch_reach(&robot32)
-            .map_err(|e| format!("{shown}: [winch]: {e}"))?;
+        cdpr_control::control_loop::check_board_robot(&robot32, &scale)
+            .map_err(|e| format!("{shown}: {e}"))?;
+        let range = SetpointRange::for_robot(&robot32);
         let derivation = derive_loop(&robot).map_err(|e| format!("{shown}: {e}"))?;
         let p = derivation.params;
         let centre = [f64::from(p.centre[0]), f64::from(p.centre[1]), f64::from(p.centre[2]), 0.0, 0.0, 0.0];
