@@ -145,10 +145,11 @@ impl Grid {
 /// The frame: the box the platform can be in (`Robot::platform_region`):
 /// the anchors' bounding box, reaching along gravity to the base origin,
 /// the floor, or for anchors in the origin's plane as far as the box is
-/// wide. An axis still without extent is an error.
-pub fn frame_box(robot: &LoadedRobot) -> Result<([f64; 3], [f64; 3]), CliError> {
+/// wide. An axis still without extent is an error. `model` is `robot`'s
+/// (`LoadedRobot::model`), built once by the caller.
+pub fn frame_box(robot: &LoadedRobot, model: &dyn Model) -> Result<([f64; 3], [f64; 3]), CliError> {
     let dims = if robot.kind() == RobotKind::Spatial6 { 3 } else { 2 };
-    let (lo, hi) = robot.model()?.platform_region();
+    let (lo, hi) = model.platform_region();
     for k in 0..dims {
         if hi[k] - lo[k] <= 0.0 {
             return Err(CliError::at(
@@ -477,14 +478,14 @@ fn plan(args: &WorkspaceArgs) -> Result<Plan, CliError> {
         None => vec![],
     };
     let dims = if kind == RobotKind::Spatial6 { 3 } else { 2 };
-    let frame = frame_box(&robot)?;
+    let model = robot.model()?;
+    let frame = frame_box(&robot, &*model)?;
     let (lo, hi) = match &args.bounds {
         Some(b) => parse_bounds(b, dims, frame)?,
         None => frame,
     };
     let grid =
         Grid::checked(lo, hi, args.step, dims).map_err(|why| CliError::input(format!("--step {why}")))?;
-    let model = robot.model()?;
     let base_mass = model.mass();
     for p in &payloads {
         if base_mass + p < 0.0 {

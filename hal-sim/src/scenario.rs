@@ -497,9 +497,10 @@ impl Config {
 
     /// The settings of `hal-sim/README.md` for `site`'s robot: the gains
     /// from its platform (the triple pole at its file's bandwidth, 5 Hz
-    /// unless `[control] bandwidth` says otherwise), the feedback's bounds scaled by its weight
-    /// ([`Site::weight_scale`]: the firmware's rule), the winches'
-    /// inertia and friction scaled by their motors ([`Site::motor_scale`]).
+    /// unless `[control] bandwidth` says otherwise), the feedback's bounds
+    /// scaled by its weight ([`Site::weight_scale`]: the firmware's rule),
+    /// the winches' inertia and friction scaled by their motors
+    /// ([`Site::motor_scale`]).
     pub fn for_site(site: &Site) -> Result<Self, String> {
         let file = read_robot_file(&site.file)?;
         let robot: PlantRobot = robot_of(&file, &site.file)?;

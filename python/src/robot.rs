@@ -669,8 +669,8 @@ impl Robot {
                 }
             }
             None => {
-                (lo, hi) =
-                    frame_box(&self.loaded).map_err(|e| PyValueError::new_err(format!("workspace: {e}")))?;
+                (lo, hi) = frame_box(&self.loaded, &*self.model)
+                    .map_err(|e| PyValueError::new_err(format!("workspace: {e}")))?;
             }
         }
         Grid::checked(lo, hi, step, dims).map_err(|why| PyValueError::new_err(format!("step: {why}")))
