@@ -57,7 +57,12 @@ fn main() {
 /// An `f32` literal of `x` as `robot-file` converts it (`x as f32`), in the
 /// shortest form that reads back to the same `f32`.
 fn lit(x: f64) -> String {
-    format!("{:?}_f32", x as f32)
+    lit32(x as f32)
+}
+
+/// An `f32` literal of `x`, in the shortest form that reads back to it.
+fn lit32(x: f32) -> String {
+    format!("{x:?}_f32")
 }
 
 fn vec3(v: [f64; 3]) -> String {
@@ -192,9 +197,9 @@ fn generate(path: &Path) -> Result<String, String> {
         s,
         "/// The static workspace's centre, base frame, m (`cdpr_demo::derive::centre`; static barycenter robustness {:.3} N).\npub const CENTRE: [f32; 3] = {};",
         centre.robustness,
-        list(centre.position.map(|x| format!("{x:?}_f32"))),
+        list(centre.position.map(lit32)),
     );
-    let home = match cdpr_demo::derive::derive(&robot) {
+    let home = match cdpr_demo::derive::derive_around(&robot, centre) {
         Ok(d) => {
             demo(&mut s, &d);
             d.params.setpoint_at(0.0).pose.into()
@@ -218,7 +223,7 @@ fn generate(path: &Path) -> Result<String, String> {
     let _ = writeln!(
         s,
         "/// Where the product's encoders' stand-in rests at start-up in QEMU, base frame, m and rad: the demo loop's start (the pose the end-to-end test homes with), or [`CENTRE`] without a demo.\npub const HOME: [f32; 6] = {};",
-        list(home.map(|x: f32| format!("{x:?}_f32"))),
+        list(home.map(lit32)),
     );
     Ok(s)
 }
@@ -226,7 +231,6 @@ fn generate(path: &Path) -> Result<String, String> {
 /// The demo trajectory's constant, `DEMO`.
 fn demo(s: &mut String, d: &cdpr_demo::derive::Derivation) {
     let p = d.params;
-    let f = |x: f32| format!("{x:?}_f32");
     let _ = writeln!(
         s,
         "/// The demo trajectory derived from the robot (`cdpr_demo::derive`): static barycenter robustness {:.3} N at the centre, the loop's smallest {:.3} N (amplitudes {:.3} of the starting ones), the excursion infeasible for {} cycles.\npub const DEMO: cdpr_demo::trajectory::Params = cdpr_demo::trajectory::Params {{ centre: {}, amplitude: {}, excursion: {}, excursion_start: {}, excursion_ramp: {}, excursion_hold: {} }};",
@@ -234,12 +238,12 @@ fn demo(s: &mut String, d: &cdpr_demo::derive::Derivation) {
         d.loop_robustness,
         d.scale,
         d.infeasible_run,
-        list(p.centre.map(f)),
-        list(p.amplitude.map(f)),
-        list(p.excursion.map(f)),
-        f(p.excursion_start),
-        f(p.excursion_ramp),
-        f(p.excursion_hold),
+        list(p.centre.map(lit32)),
+        list(p.amplitude.map(lit32)),
+        list(p.excursion.map(lit32)),
+        lit32(p.excursion_start),
+        lit32(p.excursion_ramp),
+        lit32(p.excursion_hold),
     );
 }
 

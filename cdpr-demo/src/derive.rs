@@ -79,7 +79,14 @@ pub struct Derivation {
 /// `robot`'s demo trajectory (see the module's description); an error
 /// says which step found nothing.
 pub fn derive(robot: &Robot68) -> Result<Derivation, String> {
-    let d = derive_loop(robot)?;
+    derive_around(robot, centre(robot)?)
+}
+
+/// [`derive`] from its step 1's result, `centre` ([`centre`]), for a
+/// caller that has it already (the firmware's build, which needs the
+/// centre with or without a demo).
+pub fn derive_around(robot: &Robot68, centre: Centre) -> Result<Derivation, String> {
+    let d = loop_around(robot, centre)?;
     let range = SetpointRange::for_robot(&to_f32(robot)?);
     let (params, infeasible_run) = excursion(robot, d.params, &range)?;
     Ok(Derivation {
@@ -179,6 +186,11 @@ fn grid_box(robot: &Robot68) -> Result<([f64; 3], [f64; 3]), String> {
 /// `excursion` is zero, `infeasible_run` 0). `hal-sim` builds its
 /// scenarios for a robot file on them.
 pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
+    loop_around(robot, centre(robot)?)
+}
+
+/// Step 2 of [`derive`], around step 1's `centre`.
+fn loop_around(robot: &Robot68, centre: Centre) -> Result<Derivation, String> {
     let (lo, hi) = grid_box(robot)?;
     let half: [f64; 3] = core::array::from_fn(|k| 0.5 * (hi[k] - lo[k]));
     let span = robot
@@ -189,8 +201,7 @@ pub fn derive_loop(robot: &Robot68) -> Result<Derivation, String> {
         .map(|(h, l)| h - l)
         .fold(f64::INFINITY, f64::min);
 
-    // 1. The centre: of the static feasible poses on a grid over the box.
-    let Centre { position: centre, robustness: centre_robustness } = self::centre(robot)?;
+    let Centre { position: centre, robustness: centre_robustness } = centre;
 
     // 2. The loop.
     let (start, ramp, hold) = EXCURSION_TIMES;

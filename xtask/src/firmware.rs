@@ -339,16 +339,15 @@ pub fn no_demo_robot() -> Result<String, String> {
     fs::write(&file, narrow).map_err(|e| format!("{}: {e}", file.display()))?;
     let robot = robot_path(&file.to_string_lossy())?;
     let vars = [("CDPR_ROBOT", robot.as_os_str())];
-    let lint = |bins: &[&str]| {
+    let lint = |bins: &[&'static str]| {
         let mut args = vec!["clippy", "-p", "firmware", "--target", TARGET];
         for bin in bins {
             args.extend(["--bin", bin]);
         }
         args.extend(["--", "-D", "warnings"]);
-        args.into_iter().map(String::from).collect::<Vec<_>>()
+        args
     };
-    let products = lint(&[PRODUCT, STRESS]);
-    run_step_with(CARGO, &products.iter().map(String::as_str).collect::<Vec<_>>(), &vars)?;
+    run_step_with(CARGO, &lint(&[PRODUCT, STRESS]), &vars)?;
     let demo = lint(&[DEMO]);
     println!("==> cargo {} (must fail)", demo.join(" "));
     let out =
